@@ -1,0 +1,14 @@
+#pragma once
+// Each `dualv` subcommand lives in its own file (apps/cmd_<name>.cpp) and registers
+// itself here. A command's callback returns the process exit code through
+// CommandResult; set-up errors are thrown as dualv::ConfigError and reported by main.
+#include <CLI/CLI.hpp>
+
+namespace dualv::apps {
+
+// Exit code chosen by the subcommand that ran (0 = success).
+int& exit_code() noexcept;
+
+void register_model_command(CLI::App& app);
+
+}  // namespace dualv::apps

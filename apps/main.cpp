@@ -1,0 +1,34 @@
+// dualv: driver and control stack for redundantly actuated parallel robots.
+#include <fmt/core.h>
+
+#include <CLI/CLI.hpp>
+#include <exception>
+
+#include "apps/commands.hpp"
+#include "common/config_error.hpp"
+
+namespace dualv::apps {
+int& exit_code() noexcept {
+  static int code = 0;
+  return code;
+}
+}  // namespace dualv::apps
+
+int main(int argc, char** argv) {
+  CLI::App app{"dualv: real-time control of the Dual-V redundantly actuated parallel robot"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "dualv 0.1.0");
+  dualv::apps::register_model_command(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const dualv::ConfigError& e) {
+    fmt::print(stderr, "dualv: {}\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "dualv: error: {}\n", e.what());
+    return 1;
+  }
+  return dualv::apps::exit_code();
+}

@@ -1,0 +1,35 @@
+# Shared build settings for every dualv target.
+
+add_library(dualv_warnings INTERFACE)
+target_compile_options(dualv_warnings INTERFACE -Wall -Wextra -Wpedantic)
+if(DUALV_WERROR)
+  target_compile_options(dualv_warnings INTERFACE -Werror)
+endif()
+if(DUALV_SANITIZE)
+  add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
+  add_link_options(-fsanitize=address,undefined)
+endif()
+
+function(dualv_add_subdirectory_if_present dir)
+  if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/${dir}/CMakeLists.txt)
+    add_subdirectory(${dir})
+  endif()
+endfunction()
+
+# dualv_add_library(name SOURCES ... LIBS ...): a layer library whose headers are
+# included from the repository root ("control/model/kinematics.hpp").
+function(dualv_add_library name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS" ${ARGN})
+  add_library(${name} STATIC ${ARG_SOURCES})
+  target_include_directories(${name} PUBLIC ${PROJECT_SOURCE_DIR} ${PROJECT_BINARY_DIR}/generated)
+  target_link_libraries(${name} PUBLIC ${ARG_LIBS} PRIVATE dualv_warnings)
+endfunction()
+
+# dualv_add_test(name SOURCES ... LIBS ... [LABELS ...]): one GoogleTest binary.
+function(dualv_add_test name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS;LABELS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gmock GTest::gtest_main dualv_warnings)
+  target_compile_definitions(${name} PRIVATE DUALV_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES LABELS "${ARG_LABELS}")
+endfunction()

@@ -1,0 +1,31 @@
+#pragma once
+// Exact rigid-body dynamics of all 2n + 1 bodies (plate, n cranks, n couplers with their
+// real rotational inertia), in the task coordinates X. Replaces the paper's two-mass
+// approximation (eq. 1-3) with the exact quantity: F_X = M(X) X_dd + h(X, X_dot) + g(X),
+// tau = Jm^{T*} F_X (minimum-norm actuator torques, eq. 3 without tau_3 approximated).
+// Real-time safe: noexcept, no allocation.
+#include "control/model/model.hpp"
+
+namespace dualv::model {
+
+// Fills data.M, data.h, data.g and the kinematics (data.q, Jm, Jm_dot, ...).
+Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twist& X_dot) noexcept;
+
+// Generalized force F_X = M X_dd + h + g needed for the motion (X, X_dot, X_dd).
+Status generalized_force(const Model& model, Data& data, const Pose& X, const Twist& X_dot,
+                         const Twist& X_dd, Twist& F) noexcept;
+
+// Minimum-norm joint torques [N m] realising (X, X_dot, X_dd): tau = Jm^{T*} F_X.
+// Also leaves data.R / data.N up to date.
+Status inverse_dynamics(const Model& model, Data& data, const Pose& X, const Twist& X_dot,
+                        const Twist& X_dd, JointVector& tau) noexcept;
+
+// X_dd = M^-1 (Jm^T tau - h - g): the plate acceleration produced by joint torques.
+Status forward_dynamics(const Model& model, Data& data, const Pose& X, const Twist& X_dot,
+                        const JointVector& tau, Twist& X_dd) noexcept;
+
+// Energies [J] of all bodies, computed from body velocities and positions.
+double kinetic_energy(const Model& model, Data& data, const Pose& X, const Twist& X_dot) noexcept;
+double potential_energy(const Model& model, Data& data, const Pose& X) noexcept;
+
+}  // namespace dualv::model

@@ -1,0 +1,187 @@
+#include "control/model/kinematics.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <cmath>
+
+#include "control/model/planar.hpp"
+
+namespace dualv::model {
+
+using planar::cross;
+using planar::perp;
+
+namespace {
+
+// Below this |sin(crank, coupler)| the chain is treated as serially singular:
+// Jm's row would divide by ~0.
+constexpr double kSerialEpsilon = 1e-9;
+// Below this reciprocal condition number Jm^T Jm is treated as singular.
+constexpr double kParallelEpsilon = 1e-12;
+
+bool finite(const Eigen::Vector3d& v) noexcept { return v.allFinite(); }
+
+double wrap_angle(double a) noexcept { return std::remainder(a, 2.0 * M_PI); }
+
+}  // namespace
+
+Status inverse_kinematics(const Model& model, Data& data, const Pose& X, JointVector& q) noexcept {
+  if (!finite(X) || model.n < 3 || model.n > kMaxChains) return Status::kInvalidInput;
+  q.resize(model.n);
+  const Vec2 p = X.head<2>();
+  for (int i = 0; i < model.n; ++i) {
+    const Chain& ch = model.chains[i];
+    ChainState& cs = data.chain[i];
+    cs.r = planar::rotate(X.z(), ch.plate_anchor);
+    cs.anchor = p + cs.r;
+    const Vec2 d = cs.anchor - ch.base;
+    const double dist = d.norm();
+    const double l1 = ch.crank_length, l2 = ch.coupler_length;
+    if (dist <= 0.0) return Status::kUnreachable;
+    const double cos_gamma = (l1 * l1 + dist * dist - l2 * l2) / (2.0 * l1 * dist);
+    if (!(cos_gamma >= -1.0 && cos_gamma <= 1.0)) return Status::kUnreachable;
+    q[i] = std::atan2(d.y(), d.x()) + ch.working_mode * std::acos(cos_gamma);
+    cs.crank = l1 * Vec2(std::cos(q[i]), std::sin(q[i]));
+    cs.elbow = ch.base + cs.crank;
+    cs.coupler = cs.anchor - cs.elbow;
+  }
+  return Status::kOk;
+}
+
+Status update_kinematics(const Model& model, Data& data, const Pose& X,
+                         const Twist& X_dot) noexcept {
+  if (!finite(X_dot)) return Status::kInvalidInput;
+  if (const Status s = inverse_kinematics(model, data, X, data.q); s != Status::kOk) return s;
+  data.Jm.resize(model.n, 3);
+  data.Jm_dot.resize(model.n, 3);
+  data.q_dot.resize(model.n);
+  for (int i = 0; i < model.n; ++i) {
+    const ChainState& cs = data.chain[i];
+    const Vec2& a = cs.crank;
+    const Vec2& u = cs.coupler;
+    const Vec2& r = cs.r;
+    // Closure |C_i - B_i| = l2 differentiated: u . (C_dot - B_dot) = 0 with
+    // C_dot = p_dot + theta_dot E r and B_dot = q_dot E a, so
+    // q_dot = [u^T, r x u] X_dot / (a x u).
+    const double den = cross(a, u);
+    const double sin_ab = den / (a.norm() * u.norm());
+    if (std::abs(sin_ab) < kSerialEpsilon) return Status::kSerialSingular;
+    const Eigen::RowVector3d num(u.x(), u.y(), cross(r, u));
+    const Eigen::RowVector3d row = num / den;
+    data.Jm.row(i) = row;
+    const double qd = row.dot(X_dot);
+    data.q_dot[i] = qd;
+    // Time derivative of the row: d(num/den) = (num_dot - row den_dot) / den.
+    const Vec2 r_dot = X_dot.z() * perp(r);
+    const Vec2 a_dot = qd * perp(a);
+    const Vec2 u_dot = X_dot.head<2>() + r_dot - a_dot;
+    const Eigen::RowVector3d num_dot(u_dot.x(), u_dot.y(), cross(r_dot, u) + cross(r, u_dot));
+    const double den_dot = cross(a_dot, u) + cross(a, u_dot);
+    data.Jm_dot.row(i) = (num_dot - row * den_dot) / den;
+  }
+  return Status::kOk;
+}
+
+void joint_acceleration(const Data& data, const Twist& X_dot, const Twist& X_dd,
+                        JointVector& q_dd) noexcept {
+  q_dd.resize(data.n);
+  q_dd.noalias() = data.Jm * X_dd;
+  q_dd.noalias() += data.Jm_dot * X_dot;
+}
+
+FkResult forward_kinematics(const Model& model, Data& data, const JointVector& q,
+                            const Pose& seed, Pose& X, const FkOptions& options) noexcept {
+  FkResult result;
+  X = seed;
+  if (q.size() != model.n || !q.allFinite() || !finite(seed)) {
+    result.status = Status::kInvalidInput;
+    return result;
+  }
+  // Gauss-Newton on the joint residual e = q - q_ik(X): X += (Jm^T Jm)^-1 Jm^T e.
+  // The residual is always defined where IK is; a step leaving the workspace is halved.
+  Pose x = seed;
+  JointVector e(model.n);
+  auto residual = [&](const Pose& pose, double& norm) -> Status {
+    const Status s = update_kinematics(model, data, pose, Twist::Zero());
+    if (s != Status::kOk) return s;
+    for (int i = 0; i < model.n; ++i) e[i] = wrap_angle(q[i] - data.q[i]);
+    norm = e.cwiseAbs().maxCoeff();
+    return Status::kOk;
+  };
+  double norm = 0.0;
+  if (const Status s = residual(x, norm); s != Status::kOk) {
+    result.status = s;
+    return result;
+  }
+  for (int it = 1; it <= options.max_iterations; ++it) {
+    result.iterations = it;
+    if (norm <= options.tolerance) break;
+    const Mat3 JtJ = data.Jm.transpose() * data.Jm;
+    const Eigen::FullPivLU<Mat3> lu(JtJ);
+    if (lu.rcond() < kParallelEpsilon) {
+      result.status = Status::kParallelSingular;
+      result.residual = norm;
+      return result;
+    }
+    const Twist step = lu.solve(data.Jm.transpose() * e);
+    const JointVector e_prev = e;
+    const double norm_prev = norm;
+    double alpha = 1.0;
+    Status s = Status::kUnreachable;
+    for (int halvings = 0; halvings < 30; ++halvings, alpha *= 0.5) {
+      s = residual(x + alpha * step, norm);
+      if (s == Status::kOk && norm < norm_prev) break;
+    }
+    if (s != Status::kOk || norm >= norm_prev) {
+      // No decrease: either converged to round-off or stuck. Restore the last good state.
+      e = e_prev;
+      norm = norm_prev;
+      residual(x, norm);
+      break;
+    }
+    x += alpha * step;
+  }
+  result.residual = norm;
+  // Round-off floor: atan2/acos of coordinates ~0.5 m resolve about 1e-15 rad.
+  const bool converged = norm <= std::max(options.tolerance, 1e-12);
+  result.status = converged ? Status::kOk : Status::kNotConverged;
+  if (converged) X = x;
+  return result;
+}
+
+Status update_projectors(const Model& model, Data& data) noexcept {
+  const Mat3 JtJ = data.Jm.transpose() * data.Jm;
+  const Eigen::FullPivLU<Mat3> lu(JtJ);
+  if (lu.rcond() < kParallelEpsilon) return Status::kParallelSingular;
+  data.JmT_pinv.resize(model.n, 3);
+  data.JmT_pinv.noalias() = data.Jm * lu.inverse();
+  data.R.resize(model.n, model.n);
+  data.R.noalias() = data.JmT_pinv * data.Jm.transpose();
+  data.N = JointMatrix::Identity(model.n, model.n) - data.R;
+  return Status::kOk;
+}
+
+SingularityMeasures singularity_measures(const Model& model, const Data& data) noexcept {
+  SingularityMeasures m;
+  JointJacobian scaled = data.Jm;
+  scaled.col(2) /= model.characteristic_length;
+  const Mat3 JtJ = scaled.transpose() * scaled;
+  const Eigen::SelfAdjointEigenSolver<Mat3> eig(JtJ, Eigen::EigenvaluesOnly);
+  m.parallel = std::sqrt(std::max(0.0, eig.eigenvalues()[0]));
+  m.min_serial = 1.0;
+  for (int i = 0; i < model.n; ++i) {
+    const ChainState& cs = data.chain[i];
+    m.serial[i] = std::abs(cross(cs.crank, cs.coupler)) / (cs.crank.norm() * cs.coupler.norm());
+    m.min_serial = std::min(m.min_serial, m.serial[i]);
+  }
+  return m;
+}
+
+Eigen::Vector3d jacobian_singular_values(const Data& data) noexcept {
+  const Mat3 JtJ = data.Jm.transpose() * data.Jm;
+  const Eigen::SelfAdjointEigenSolver<Mat3> eig(JtJ, Eigen::EigenvaluesOnly);
+  const Eigen::Vector3d ev = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt();  // ascending
+  return {ev[2], ev[1], ev[0]};
+}
+
+}  // namespace dualv::model

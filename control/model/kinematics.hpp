@@ -1,0 +1,56 @@
+#pragma once
+// Kinematics of the planar n-RRR mechanism. Real-time safe: noexcept, no allocation.
+#include "control/model/model.hpp"
+
+namespace dualv::model {
+
+// q_i = atan2(C_i - A_i) + s_i acos((l1^2 + d^2 - l2^2) / (2 l1 d)), d = |C_i - A_i|.
+// Also fills data.chain[*] (anchors, elbows). q is resized to model.n.
+Status inverse_kinematics(const Model& model, Data& data, const Pose& X, JointVector& q) noexcept;
+
+// Inverse kinematics at X plus Jm and Jm_dot at (X, X_dot): fills data.q, data.q_dot,
+// data.Jm, data.Jm_dot, data.chain. Velocity closure: q_dot = Jm X_dot.
+Status update_kinematics(const Model& model, Data& data, const Pose& X, const Twist& X_dot) noexcept;
+
+// Joint accelerations for a plate acceleration, after update_kinematics:
+// q_dd = Jm X_dd + Jm_dot X_dot.
+void joint_acceleration(const Data& data, const Twist& X_dot, const Twist& X_dd,
+                        JointVector& q_dd) noexcept;
+
+struct FkOptions {
+  int max_iterations = 50;
+  double tolerance = 1e-13;  // on the joint residual |q_ik(X) - q|_inf [rad]
+};
+
+struct FkResult {
+  Status status = Status::kNotConverged;
+  int iterations = 0;
+  double residual = 0.0;  // |q_ik(X) - q|_inf [rad] at the returned X
+};
+
+// Forward kinematics: Gauss-Newton on Jm from `seed` (e.g. the previous pose).
+// On failure X is left at `seed`; never NaN.
+FkResult forward_kinematics(const Model& model, Data& data, const JointVector& q,
+                            const Pose& seed, Pose& X, const FkOptions& options = {}) noexcept;
+
+// Computes data.JmT_pinv, data.R and data.N from data.Jm (after update_kinematics).
+// R = Jm^{T*} Jm^T projects torques onto range(Jm); N = I - R holds internal forces.
+Status update_projectors(const Model& model, Data& data) noexcept;
+
+struct SingularityMeasures {
+  // Smallest singular value of Jm with the rotation column scaled by
+  // characteristic_length (translations and rotation comparable) [rad/m]:
+  // goes to zero at a parallel (type II) singularity.
+  double parallel = 0.0;
+  // Per chain: |sin| of the crank-coupler angle; zero at a serial (type I) singularity.
+  std::array<double, kMaxChains> serial{};
+  double min_serial = 0.0;
+};
+
+// After update_kinematics.
+SingularityMeasures singularity_measures(const Model& model, const Data& data) noexcept;
+
+// Singular values of Jm (unscaled), largest first, after update_kinematics.
+Eigen::Vector3d jacobian_singular_values(const Data& data) noexcept;
+
+}  // namespace dualv::model
