@@ -97,15 +97,17 @@ FkResult forward_kinematics(const Model& model, Data& data, const JointVector& q
     result.status = Status::kInvalidInput;
     return result;
   }
-  // Gauss-Newton on the joint residual e = q - q_ik(X): X += (Jm^T Jm)^-1 Jm^T e.
-  // The residual is always defined where IK is; a step leaving the workspace is halved.
+  // Gauss-Newton on the joint residual e = q - q_ik(X): X += (Jm^T Jm)^-1 Jm^T e. With n > 3
+  // chains and measured (quantised) q the equations are inconsistent: the iteration then
+  // converges to the least-squares pose, where the step vanishes but the residual does not.
+  // A step that leaves the workspace or does not reduce |e| is halved.
   Pose x = seed;
   JointVector e(model.n);
   auto residual = [&](const Pose& pose, double& norm) -> Status {
     const Status s = update_kinematics(model, data, pose, Twist::Zero());
     if (s != Status::kOk) return s;
     for (int i = 0; i < model.n; ++i) e[i] = wrap_angle(q[i] - data.q[i]);
-    norm = e.cwiseAbs().maxCoeff();
+    norm = e.norm();
     return Status::kOk;
   };
   double norm = 0.0;
@@ -113,9 +115,13 @@ FkResult forward_kinematics(const Model& model, Data& data, const JointVector& q
     result.status = s;
     return result;
   }
-  for (int it = 1; it <= options.max_iterations; ++it) {
+  bool converged = false;
+  for (int it = 1; it <= options.max_iterations && !converged; ++it) {
     result.iterations = it;
-    if (norm <= options.tolerance) break;
+    if (norm <= options.tolerance) {
+      converged = true;
+      break;
+    }
     const Mat3 JtJ = data.Jm.transpose() * data.Jm;
     const Eigen::FullPivLU<Mat3> lu(JtJ);
     if (lu.rcond() < kParallelEpsilon) {
@@ -124,28 +130,33 @@ FkResult forward_kinematics(const Model& model, Data& data, const JointVector& q
       return result;
     }
     const Twist step = lu.solve(data.Jm.transpose() * e);
-    const JointVector e_prev = e;
+    const double step_size = step.cwiseAbs().maxCoeff();
+    const Pose x_prev = x;
     const double norm_prev = norm;
     double alpha = 1.0;
-    Status s = Status::kUnreachable;
-    for (int halvings = 0; halvings < 30; ++halvings, alpha *= 0.5) {
-      s = residual(x + alpha * step, norm);
-      if (s == Status::kOk && norm < norm_prev) break;
+    bool improved = false;
+    for (int halvings = 0; halvings < 30 && !improved; ++halvings, alpha *= 0.5) {
+      double trial = 0.0;
+      if (residual(x_prev + alpha * step, trial) == Status::kOk && trial <= norm_prev) {
+        x = x_prev + alpha * step;
+        norm = trial;
+        improved = true;
+      }
     }
-    if (s != Status::kOk || norm >= norm_prev) {
-      // No decrease: either converged to round-off or stuck. Restore the last good state.
-      e = e_prev;
-      norm = norm_prev;
-      residual(x, norm);
+    // Least-squares optimum (or round-off floor) reached: the step no longer moves X.
+    if (step_size < options.step_tolerance || !improved) {
+      converged = step_size < 1e3 * options.step_tolerance;
+      if (!improved) residual(x_prev, norm);
+      x = improved ? x : x_prev;
       break;
     }
-    x += alpha * step;
   }
+  residual(x, norm);  // leaves data at the returned pose
   result.residual = norm;
-  // Round-off floor: atan2/acos of coordinates ~0.5 m resolve about 1e-15 rad.
-  const bool converged = norm <= std::max(options.tolerance, 1e-12);
-  result.status = converged ? Status::kOk : Status::kNotConverged;
-  if (converged) X = x;
+  result.status = !converged                     ? Status::kNotConverged
+                  : norm > options.max_residual ? Status::kInconsistent
+                                                : Status::kOk;
+  if (result.status == Status::kOk) X = x;
   return result;
 }
 

@@ -19,17 +19,24 @@ void joint_acceleration(const Data& data, const Twist& X_dot, const Twist& X_dd,
 
 struct FkOptions {
   int max_iterations = 50;
-  double tolerance = 1e-13;  // on the joint residual |q_ik(X) - q|_inf [rad]
+  double tolerance = 1e-13;       // on the joint residual |q_ik(X) - q|_2 [rad]
+  double step_tolerance = 1e-14;  // a Gauss-Newton step below this [m, rad]: converged
+  // Joint angles whose least-squares pose leaves a residual above this [rad] cannot come
+  // from one rigid plate (a slipped or broken encoder): kInconsistent.
+  double max_residual = 1e-3;
 };
 
 struct FkResult {
   Status status = Status::kNotConverged;
   int iterations = 0;
-  double residual = 0.0;  // |q_ik(X) - q|_inf [rad] at the returned X
+  // |q_ik(X) - q|_2 [rad] at the returned X. Zero up to round-off for consistent q; for
+  // measured q of a redundant machine it is the encoders' disagreement (a health signal).
+  double residual = 0.0;
 };
 
-// Forward kinematics: Gauss-Newton on Jm from `seed` (e.g. the previous pose).
-// On failure X is left at `seed`; never NaN.
+// Forward kinematics: Gauss-Newton on Jm from `seed` (e.g. the previous pose), converging to
+// the least-squares pose when the n > 3 joint angles are not exactly consistent. On failure X
+// is left at `seed`; never NaN. Leaves `data` at the returned pose (Jm valid there).
 FkResult forward_kinematics(const Model& model, Data& data, const JointVector& q,
                             const Pose& seed, Pose& X, const FkOptions& options = {}) noexcept;
 

@@ -10,6 +10,7 @@ const char* to_string(Status s) noexcept {
     case Status::kParallelSingular: return "parallel singularity";
     case Status::kInvalidInput: return "invalid input";
     case Status::kNotConverged: return "not converged";
+    case Status::kInconsistent: return "inconsistent joint angles";
   }
   return "unknown";
 }

@@ -63,6 +63,7 @@ enum class Status : std::uint8_t {
   kParallelSingular, // Jm^T Jm not invertible: the plate is not controlled
   kInvalidInput,     // NaN/Inf input or a size that does not match the model
   kNotConverged,     // forward kinematics ran out of iterations
+  kInconsistent,     // forward kinematics: no pose explains the n joint angles
 };
 
 const char* to_string(Status s) noexcept;

@@ -105,6 +105,16 @@ TEST(ForwardKinematics, ImpossibleJointAnglesGiveAStatusNotNaN) {
   EXPECT_NE(r.status, Status::kOk);
   EXPECT_TRUE(X.allFinite());
   EXPECT_EQ(X, m.home);  // left at the seed
+  // Quantised encoders disagree slightly: the least-squares pose is still found.
+  ASSERT_EQ(inverse_kinematics(m, d, m.home + Pose(0.01, 0.005, 0.02), q), Status::kOk);
+  const Pose truth = m.home + Pose(0.01, 0.005, 0.02);
+  const double count = 2 * M_PI / (1 << 20);
+  for (int i = 0; i < m.n; ++i) q[i] = std::round(q[i] / count) * count;
+  const FkResult lsq = forward_kinematics(m, d, q, m.home, X);
+  EXPECT_EQ(lsq.status, Status::kOk);
+  EXPECT_GT(lsq.residual, 0.0);
+  EXPECT_LT(lsq.residual, 2 * count);
+  EXPECT_LT((X - truth).head<2>().norm(), 1e-5);
   q[0] = NAN;
   EXPECT_EQ(forward_kinematics(m, d, q, m.home, X).status, Status::kInvalidInput);
 }
