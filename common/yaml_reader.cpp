@@ -49,23 +49,20 @@ bool YamlReader::has(const std::string& key) const {
   return node_.IsMap() && node_[key].IsDefined() && !node_[key].IsNull();
 }
 
-YAML::Node YamlReader::get(const std::string& key, bool required) {
+std::optional<YAML::Node> YamlReader::get(const std::string& key, bool required) {
   read_keys_.push_back(key);
-  if (!node_.IsMap()) {
+  if (!has(key)) {
     if (required) problem(fmt::format("{}: missing", key_path(key)));
-    return YAML::Node();
+    return std::nullopt;
   }
-  YAML::Node n = node_[key];
-  if (!n.IsDefined() || n.IsNull()) {
-    if (required) problem(fmt::format("{}: missing", key_path(key)));
-    return YAML::Node();
-  }
-  return n;
+  const YAML::Node& map = node_;  // const lookup: never inserts the key
+  return map[key];
 }
 
 double YamlReader::number(const std::string& key, std::optional<double> fallback) {
-  YAML::Node n = get(key, !fallback.has_value());
-  if (!n.IsDefined()) return fallback.value_or(0.0);
+  const auto found = get(key, !fallback.has_value());
+  if (!found) return fallback.value_or(0.0);
+  const YAML::Node& n = *found;
   try {
     if (!n.IsScalar()) throw YAML::Exception(YAML::Mark(), "not a scalar");
     double v = n.as<double>();
@@ -82,8 +79,9 @@ double YamlReader::number(const std::string& key, std::optional<double> fallback
 }
 
 int YamlReader::integer(const std::string& key, std::optional<int> fallback) {
-  YAML::Node n = get(key, !fallback.has_value());
-  if (!n.IsDefined()) return fallback.value_or(0);
+  const auto found = get(key, !fallback.has_value());
+  if (!found) return fallback.value_or(0);
+  const YAML::Node& n = *found;
   try {
     if (!n.IsScalar()) throw YAML::Exception(YAML::Mark(), "not a scalar");
     return n.as<int>();
@@ -95,8 +93,9 @@ int YamlReader::integer(const std::string& key, std::optional<int> fallback) {
 }
 
 bool YamlReader::boolean(const std::string& key, std::optional<bool> fallback) {
-  YAML::Node n = get(key, !fallback.has_value());
-  if (!n.IsDefined()) return fallback.value_or(false);
+  const auto found = get(key, !fallback.has_value());
+  if (!found) return fallback.value_or(false);
+  const YAML::Node& n = *found;
   try {
     if (!n.IsScalar()) throw YAML::Exception(YAML::Mark(), "not a scalar");
     return n.as<bool>();
@@ -108,8 +107,9 @@ bool YamlReader::boolean(const std::string& key, std::optional<bool> fallback) {
 }
 
 std::string YamlReader::string(const std::string& key, std::optional<std::string> fallback) {
-  YAML::Node n = get(key, !fallback.has_value());
-  if (!n.IsDefined()) return fallback.value_or("");
+  const auto found = get(key, !fallback.has_value());
+  if (!found) return fallback.value_or("");
+  const YAML::Node& n = *found;
   if (!n.IsScalar()) {
     problem(fmt::format("{}: must be a string", key_path(key)));
     return fallback.value_or("");
@@ -119,8 +119,9 @@ std::string YamlReader::string(const std::string& key, std::optional<std::string
 
 std::vector<double> YamlReader::numbers(const std::string& key,
                                         std::optional<std::vector<double>> fallback) {
-  YAML::Node n = get(key, !fallback.has_value());
-  if (!n.IsDefined()) return fallback.value_or(std::vector<double>{});
+  const auto found = get(key, !fallback.has_value());
+  if (!found) return fallback.value_or(std::vector<double>{});
+  const YAML::Node& n = *found;
   if (!n.IsSequence()) {
     problem(fmt::format("{}: must be a list of numbers", key_path(key)));
     return fallback.value_or(std::vector<double>{});
@@ -140,13 +141,15 @@ std::vector<double> YamlReader::numbers(const std::string& key,
 }
 
 YamlReader YamlReader::child(const std::string& key, bool required) {
-  return YamlReader(get(key, required), key_path(key), problems_);
+  const auto found = get(key, required);
+  return YamlReader(found ? *found : YAML::Node(YAML::NodeType::Null), key_path(key), problems_);
 }
 
 std::vector<YamlReader> YamlReader::children(const std::string& key, bool required) {
-  YAML::Node n = get(key, required);
+  const auto found = get(key, required);
   std::vector<YamlReader> out;
-  if (!n.IsDefined()) return out;
+  if (!found) return out;
+  const YAML::Node& n = *found;
   if (!n.IsSequence()) {
     problem(fmt::format("{}: must be a list", key_path(key)));
     return out;

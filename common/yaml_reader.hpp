@@ -48,7 +48,7 @@ class YamlReader {
   bool valid() const noexcept { return node_.IsDefined() && !node_.IsNull(); }
 
  private:
-  YAML::Node get(const std::string& key, bool required);
+  std::optional<YAML::Node> get(const std::string& key, bool required);
   YAML::Node node_;
   std::string path_;
   std::vector<std::string>* problems_;
