@@ -13,10 +13,10 @@ namespace dualv::drivers {
 
 enum class BusStatus : std::uint8_t {
   kOk = 0,
-  kWouldBlock,   // send: the transmit queue is full (ENOBUFS/EAGAIN); receive: nothing pending
-  kBusOff,       // the controller went bus-off: latched until restart() succeeds
-  kErrorPassive, // error counters high; frames may still pass
-  kIoError,      // any other OS error
+  kWouldBlock,    // send: the transmit queue is full (ENOBUFS/EAGAIN); receive: nothing pending
+  kBusOff,        // the controller went bus-off: latched until restart() succeeds
+  kErrorPassive,  // error counters high; frames may still pass
+  kIoError,       // any other OS error
   kClosed,
 };
 
@@ -26,12 +26,12 @@ const char* to_string(BusStatus s) noexcept;
 struct BusCounters {
   std::uint64_t tx_frames = 0;
   std::uint64_t rx_frames = 0;
-  std::uint64_t tx_dropped = 0;   // send returned kWouldBlock or an error
-  std::uint64_t error_frames = 0; // error frames received (SocketCAN CAN_ERR_FLAG)
+  std::uint64_t tx_dropped = 0;    // send returned kWouldBlock or an error
+  std::uint64_t error_frames = 0;  // error frames received (SocketCAN CAN_ERR_FLAG)
   std::uint64_t bus_off_events = 0;
   std::uint64_t error_passive_events = 0;  // transitions into error passive
-  std::uint64_t rx_overruns = 0;  // frames lost before we read them (full receive queue)
-  std::uint64_t restarts = 0;     // successful restart() calls
+  std::uint64_t rx_overruns = 0;           // frames lost before we read them (full receive queue)
+  std::uint64_t restarts = 0;              // successful restart() calls
 };
 
 class CanBus {

@@ -1,0 +1,133 @@
+#include "firmware_if/pdo.hpp"
+
+#include "firmware_if/byte_order.hpp"
+
+namespace dualv::fw {
+
+const char* to_string(RpdoLayoutKind k) noexcept {
+  switch (k) {
+    case RpdoLayoutKind::kPerDrive:
+      return "per-drive RPDO (controlword + target torque)";
+    case RpdoLayoutKind::kBroadcast:
+      return "broadcast RPDO (all target torques in one frame)";
+  }
+  return "?";
+}
+
+namespace {
+
+Result<CanFrame> pdo_frame(Function f, std::uint8_t node, std::uint8_t dlc) noexcept {
+  const Result<std::uint16_t> id = make_cob_id(f, node);
+  if (!id) return id.error();
+  CanFrame frame;
+  frame.id = *id;
+  frame.dlc = dlc;
+  return frame;
+}
+
+// The byte offsets come from the layouts, so codec and mapping cannot disagree.
+constexpr int kRpdoCwAt = kRpdo1Layout.offset_of(od::kControlword);
+constexpr int kRpdoTorqueAt = kRpdo1Layout.offset_of(od::kTargetTorque);
+constexpr int kTpdoSwAt = kTpdo1Layout.offset_of(od::kStatusword);
+constexpr int kTpdoPosAt = kTpdo1Layout.offset_of(od::kPositionActual);
+static_assert(kRpdoCwAt == 0 && kRpdoTorqueAt == 2 && kTpdoSwAt == 0 && kTpdoPosAt == 2);
+
+}  // namespace
+
+Result<CanFrame> encode_rpdo1(std::uint8_t node, const DriveCommand& c) noexcept {
+  Result<CanFrame> r = pdo_frame(Function::kRpdo1, node, kRpdo1Layout.bytes());
+  if (!r) return r;
+  CanFrame f = *r;
+  put_u16_le(&f.data[kRpdoCwAt], c.controlword);
+  put_u16_le(&f.data[kRpdoTorqueAt], static_cast<std::uint16_t>(c.target_torque));
+  return f;
+}
+
+Result<DriveCommand> decode_rpdo1(const CanFrame& frame) noexcept {
+  const Result<std::uint8_t> node = expect_function(frame, Function::kRpdo1);
+  if (!node) return node.error();
+  if (frame.dlc != kRpdo1Layout.bytes()) return Error::kWrongDlc;
+  return DriveCommand{get_u16_le(&frame.data[kRpdoCwAt]),
+                      as_i16(get_u16_le(&frame.data[kRpdoTorqueAt]))};
+}
+
+Result<CanFrame> encode_tpdo1(std::uint8_t node, const DriveFeedback& fb) noexcept {
+  Result<CanFrame> r = pdo_frame(Function::kTpdo1, node, kTpdo1Layout.bytes());
+  if (!r) return r;
+  CanFrame f = *r;
+  put_u16_le(&f.data[kTpdoSwAt], fb.statusword);
+  put_u32_le(&f.data[kTpdoPosAt], static_cast<std::uint32_t>(fb.position));
+  return f;
+}
+
+Result<DriveFeedback> decode_tpdo1(const CanFrame& frame) noexcept {
+  const Result<std::uint8_t> node = expect_function(frame, Function::kTpdo1);
+  if (!node) return node.error();
+  if (frame.dlc != kTpdo1Layout.bytes()) return Error::kWrongDlc;
+  return DriveFeedback{get_u16_le(&frame.data[kTpdoSwAt]),
+                       as_i32(get_u32_le(&frame.data[kTpdoPosAt]))};
+}
+
+Result<std::uint8_t> pdo_node(const CanFrame& frame) noexcept {
+  const Result<CobIdInfo> info = classify(frame);
+  if (!info) return info.error();
+  switch (info->function) {
+    case Function::kTpdo1:
+    case Function::kTpdo2:
+    case Function::kTpdo3:
+    case Function::kTpdo4:
+    case Function::kRpdo1:
+    case Function::kRpdo2:
+    case Function::kRpdo3:
+    case Function::kRpdo4:
+      return info->node;
+    default:
+      return Error::kWrongFunction;
+  }
+}
+
+Result<CanFrame> encode_broadcast_torques(const BroadcastTorques& t) noexcept {
+  if (t.drives < 1 || t.drives > kBroadcastMaxDrives) return Error::kBadValue;
+  CanFrame f;
+  f.id = kBroadcastRpdoCobId;
+  f.dlc = broadcast_rpdo_bytes(t.drives);
+  for (std::uint8_t i = 0; i < t.drives; ++i)
+    put_u16_le(&f.data[2u * i], static_cast<std::uint16_t>(t.torque[i]));
+  return f;
+}
+
+Result<BroadcastTorques> decode_broadcast_torques(const CanFrame& frame) noexcept {
+  const Result<std::uint8_t> node = expect_function(frame, Function::kBroadcastRpdo);
+  if (!node) return node.error();
+  if (frame.dlc < 2 || frame.dlc > 2 * kBroadcastMaxDrives || frame.dlc % 2 != 0)
+    return Error::kWrongDlc;
+  BroadcastTorques t;
+  t.drives = static_cast<std::uint8_t>(frame.dlc / 2);
+  for (std::uint8_t i = 0; i < t.drives; ++i) t.torque[i] = as_i16(get_u16_le(&frame.data[2u * i]));
+  return t;
+}
+
+Result<std::int16_t> decode_broadcast_torque(const CanFrame& frame, std::uint8_t slot) noexcept {
+  const Result<std::uint8_t> node = expect_function(frame, Function::kBroadcastRpdo);
+  if (!node) return node.error();
+  if (slot >= kBroadcastMaxDrives) return Error::kBadValue;
+  if (frame.dlc > 8 || frame.dlc < 2u * (slot + 1u)) return Error::kWrongDlc;
+  return as_i16(get_u16_le(&frame.data[2u * slot]));
+}
+
+Result<CanFrame> encode_controlword_rpdo(std::uint8_t node, std::uint16_t controlword) noexcept {
+  Result<CanFrame> r = pdo_frame(Function::kRpdo1, node, kControlwordRpdoLayout.bytes());
+  if (!r) return r;
+  CanFrame f = *r;
+  put_u16_le(&f.data[0], controlword);
+  return f;
+}
+
+Result<std::uint16_t> decode_controlword_rpdo(const CanFrame& frame) noexcept {
+  const Result<std::uint8_t> node = expect_function(frame, Function::kRpdo1);
+  if (!node) return node.error();
+  if (frame.dlc != kControlwordRpdoLayout.bytes()) return Error::kWrongDlc;
+  return get_u16_le(&frame.data[0]);
+}
+
+}  // namespace dualv::fw

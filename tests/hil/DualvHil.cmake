@@ -1,0 +1,45 @@
+# dualv_add_hil_test(name COMMAND cmd [args...] [TIMEOUT seconds] [VCANS n]
+#                    [WORKING_DIRECTORY dir] [LABELS ...])
+#
+# Registers a ctest test (label "hil") that runs COMMAND where SocketCAN interfaces
+# vcan0..vcan<n-1> are up, through tests/hil/run_in_vcan.sh: directly on a host whose kernel
+# has vcan, inside Debian's user-mode-linux guest otherwise (build machines, CI). COMMAND may
+# use generator expressions ($<TARGET_FILE:tgt>). TIMEOUT (default 300 s) bounds the guest;
+# ctest's own timeout is 60 s longer so the wrapper reports the timeout itself.
+# Run them with `ctest -L hil`; exclude them with `ctest -LE hil`.
+#
+# Usable from any CMakeLists.txt after include(${PROJECT_SOURCE_DIR}/tests/hil/DualvHil.cmake).
+include_guard(GLOBAL)
+
+# The LD_PRELOAD shim that lets UML 6.1 run on hosts with AVX-512/AMX (uml_xstate_shim.c).
+# It is loaded into linux.uml, so it must not carry sanitizer flags from the build.
+add_library(dualv_uml_xstate_shim MODULE ${CMAKE_CURRENT_LIST_DIR}/uml_xstate_shim.c)
+set_target_properties(dualv_uml_xstate_shim PROPERTIES PREFIX "" COMPILE_OPTIONS "" LINK_OPTIONS "")
+target_link_libraries(dualv_uml_xstate_shim PRIVATE ${CMAKE_DL_LIBS})
+
+function(dualv_add_hil_test name)
+  cmake_parse_arguments(ARG "" "TIMEOUT;VCANS;WORKING_DIRECTORY" "COMMAND;LABELS" ${ARGN})
+  if(NOT ARG_COMMAND)
+    message(FATAL_ERROR "dualv_add_hil_test(${name}): COMMAND is required")
+  endif()
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 300)
+  endif()
+  if(NOT ARG_VCANS)
+    set(ARG_VCANS 1)
+  endif()
+  if(NOT ARG_WORKING_DIRECTORY)
+    set(ARG_WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
+  endif()
+  # Paths from this file's folder, not the caller's: the include guard makes variables set
+  # here exist only in the first includer's scope.
+  add_test(NAME ${name}
+    COMMAND ${CMAKE_CURRENT_FUNCTION_LIST_DIR}/run_in_vcan.sh
+            --timeout ${ARG_TIMEOUT} --vcans ${ARG_VCANS}
+            --shim $<TARGET_FILE:dualv_uml_xstate_shim> -- ${ARG_COMMAND}
+    WORKING_DIRECTORY ${ARG_WORKING_DIRECTORY})
+  math(EXPR ctest_timeout "${ARG_TIMEOUT} + 60")
+  # 77: run_in_vcan.sh could not run it here (an ASan build inside user-mode-linux).
+  set_tests_properties(${name} PROPERTIES LABELS "hil;${ARG_LABELS}" TIMEOUT ${ctest_timeout}
+                                          SKIP_RETURN_CODE 77)
+endfunction()
