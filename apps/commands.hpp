@@ -10,5 +10,6 @@ namespace dualv::apps {
 int& exit_code() noexcept;
 
 void register_model_command(CLI::App& app);
+void register_run_command(CLI::App& app);
 
 }  // namespace dualv::apps

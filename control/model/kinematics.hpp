@@ -20,7 +20,7 @@ void joint_acceleration(const Data& data, const Twist& X_dot, const Twist& X_dd,
 struct FkOptions {
   int max_iterations = 50;
   double tolerance = 1e-13;       // on the joint residual |q_ik(X) - q|_2 [rad]
-  double step_tolerance = 1e-14;  // a Gauss-Newton step below this [m, rad]: converged
+  double step_tolerance = 1e-10;  // a Gauss-Newton step below this [m, rad]: converged
   // Joint angles whose least-squares pose leaves a residual above this [rad] cannot come
   // from one rigid plate (a slipped or broken encoder): kInconsistent.
   double max_residual = 1e-3;

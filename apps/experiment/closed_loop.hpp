@@ -1,0 +1,76 @@
+#pragma once
+// The closed-loop experiment: a program run by the control cycle against the simulated
+// Dual-V, in-process and deterministic (simulated time, no sleeping), with the per-shape
+// figures the paper reports (section V): tracking error, torques, torque steps, internal torque.
+#include <array>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "apps/experiment/robot_config.hpp"
+#include "control/trajectory/program.hpp"
+#include "drivers/actuator_set.hpp"
+
+namespace dualv::apps {
+
+struct Variant {
+  std::string name;                                            // e.g. "retimed"
+  trajectory::TimingKind timing = trajectory::TimingKind::kRetimed;
+  bool projection = true;
+  bool feedforward = true;
+};
+
+// The paper's comparison: proposed (retimed + projection) against the original clock, plus
+// the ablations of projection and feedforward.
+std::vector<Variant> paper_variants();
+
+// One control cycle, reduced to what the figures and metrics need.
+struct Row {
+  double t = 0.0;  // program time [s]
+  int segment = 0;
+  model::Pose X_d = model::Pose::Zero();
+  model::Pose X = model::Pose::Zero();       // estimated (forward kinematics of the encoders)
+  std::array<double, drivers::kMaxDrives> tau{};  // torque sent [N m]
+  double tau_internal = 0.0;        // |N tau| of the command at the estimate [N m]
+  double plant_internal = 0.0;      // |N tau| of the torque the simulated motors apply [N m]
+  double lambda = 0.0, lambda_dot = 0.0, lambda_dd = 0.0;
+};
+
+struct SegmentMetrics {
+  std::size_t segment = 0;
+  std::string label;  // e.g. "circle"
+  trajectory::SegmentKind kind = trajectory::SegmentKind::kDwell;
+  double max_error_x_mm = 0.0, max_error_y_mm = 0.0;
+  double max_error_mm = 0.0, rms_error_mm = 0.0;  // |(x, y)| error
+  std::array<double, drivers::kMaxDrives> peak_tau{};
+  double max_tau_step = 0.0;      // largest |tau_k - tau_k-1| of any motor [N m]
+  double rms_internal = 0.0;      // RMS |N tau| of the commands [N m]
+  int cycles = 0;
+};
+
+struct RunResult {
+  Variant variant;
+  int n = 0;
+  std::vector<Row> rows;
+  std::vector<SegmentMetrics> segments;  // one per program segment
+  SegmentMetrics shapes;                 // all shape segments together
+  double robot_time = 0.0;               // [s]
+  double wall_time = 0.0;                // [s]
+  bool ok = true;
+  std::string failure;                   // why the run stopped early
+};
+
+struct RunOptions {
+  double settle_time = 0.2;  // [s] held at the final pose after the program
+  std::function<void(const std::string& variant, double t, double duration)> progress;
+};
+
+// Runs `program` (rebased onto the simulated robot's home pose) with the variant's timing
+// law and controller switches against the in-process simulation of config.plant.
+RunResult run_in_process(const RobotConfig& config, const trajectory::Program& program,
+                         const Variant& variant, const RunOptions& options = {});
+
+// Metrics from rows (used for any backend: in-process, CAN).
+void compute_metrics(const trajectory::Program& program, RunResult& result);
+
+}  // namespace dualv::apps

@@ -1,0 +1,50 @@
+#include "apps/experiment/robot_config.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <functional>
+
+#include "common/config_error.hpp"
+#include "common/yaml_reader.hpp"
+#include "control/model/model_config.hpp"
+
+namespace dualv::apps {
+
+RobotConfig load_robot_config(const std::string& path) {
+  const YAML::Node root = YamlReader::load_file(path);
+  RobotConfig cfg;
+  cfg.path = path;
+  std::vector<std::string> problems;
+  // Each section loader throws its own ConfigError; collect them all before giving up.
+  auto section = [&](const std::function<void()>& load) {
+    try {
+      load();
+    } catch (const ConfigError& e) {
+      for (const auto& p : e.problems()) problems.push_back(fmt::format("{}: {}", path, p));
+    }
+  };
+  section([&] { cfg.model = model::load_model(root["model"]); });
+  const int n = cfg.model.n > 0 ? cfg.model.n : 4;
+  section([&] { cfg.control = control::load_control_config(root["controller"], n); });
+  section([&] { cfg.trajectory = trajectory::load_trajectory_config(root["trajectory"]); });
+  section([&] { cfg.plant = sim::load_plant_config(root["plant"]); });
+  section([&] {
+    ConfigProblems p;
+    YamlReader loop(root["loop"], "loop", p.sink());
+    if (!loop.valid()) p.sink()->push_back("loop: missing (rate_hz: the control rate)");
+    cfg.loop = control::read_executive_config(loop);
+    p.finish();
+  });
+  const char* known[] = {"model", "controller", "trajectory", "plant", "loop", "safety", "can",
+                         "lcm", "drives"};
+  for (const auto& kv : root) {
+    const std::string key = kv.first.as<std::string>();
+    if (std::find(std::begin(known), std::end(known), key) == std::end(known))
+      problems.push_back(fmt::format("{}: {}: unknown section", path, key));
+  }
+  if (!problems.empty()) throw ConfigError(problems);
+  return cfg;
+}
+
+}  // namespace dualv::apps

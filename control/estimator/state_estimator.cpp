@@ -1,0 +1,49 @@
+#include "control/estimator/state_estimator.hpp"
+
+#include <Eigen/LU>
+#include <cmath>
+#include <stdexcept>
+
+namespace dualv::control {
+
+StateEstimator::StateEstimator(const model::Model& model, const EstimatorConfig& config,
+                               double period_s)
+    : model_(&model), data_(model), period_(period_s) {
+  if (!(period_s > 0.0)) throw std::invalid_argument("estimator: period must be > 0");
+  if (!(config.velocity_cutoff_hz > 0.0))
+    throw std::invalid_argument("estimator: velocity_cutoff_hz must be > 0");
+  const double rc = 1.0 / (2.0 * M_PI * config.velocity_cutoff_hz);
+  alpha_ = period_s / (period_s + rc);
+  reset(model::JointVector::Zero(model.n), model.home);
+}
+
+void StateEstimator::reset(const model::JointVector& q, const model::Pose& X) noexcept {
+  q_prev_ = q;
+  est_.q = q;
+  est_.q_dot = model::JointVector::Zero(model_->n);
+  est_.X = X;
+  est_.X_dot.setZero();
+  est_.status = EstimateStatus::kOk;
+}
+
+EstimateStatus StateEstimator::update(const model::JointVector& q_measured) noexcept {
+  if (q_measured.size() != model_->n || !q_measured.allFinite())
+    return est_.status = EstimateStatus::kInvalidInput;
+  for (int i = 0; i < model_->n; ++i) {
+    const double raw = (q_measured[i] - q_prev_[i]) / period_;
+    est_.q_dot[i] += alpha_ * (raw - est_.q_dot[i]);
+  }
+  q_prev_ = q_measured;
+  est_.q = q_measured;
+  model::Pose X;
+  const model::FkResult fk = model::forward_kinematics(*model_, data_, q_measured, est_.X, X);
+  est_.fk_iterations = fk.iterations;
+  if (fk.status != model::Status::kOk) return est_.status = EstimateStatus::kFkFailed;
+  est_.X = X;
+  // forward_kinematics leaves data_ at X: X_dot = (Jm^T Jm)^-1 Jm^T q_dot.
+  const model::Mat3 JtJ = data_.Jm.transpose() * data_.Jm;
+  est_.X_dot = JtJ.partialPivLu().solve(data_.Jm.transpose() * est_.q_dot);
+  return est_.status = EstimateStatus::kOk;
+}
+
+}  // namespace dualv::control

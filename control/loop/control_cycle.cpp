@@ -1,0 +1,124 @@
+#include "control/loop/control_cycle.hpp"
+
+#include <fmt/format.h>
+
+#include <stdexcept>
+
+#include "control/model/kinematics.hpp"
+
+namespace dualv::control {
+
+const char* to_string(CyclePhase p) noexcept {
+  switch (p) {
+    case CyclePhase::kEnabling: return "enabling";
+    case CyclePhase::kRunning: return "running";
+    case CyclePhase::kHolding: return "holding";
+  }
+  return "unknown";
+}
+
+const char* to_string(CycleStatus s) noexcept {
+  switch (s) {
+    case CycleStatus::kOk: return "ok";
+    case CycleStatus::kIoError: return "io error";
+    case CycleStatus::kEstimateFailed: return "estimate failed";
+    case CycleStatus::kControlFailed: return "control failed";
+    case CycleStatus::kEnableTimeout: return "enable timeout";
+  }
+  return "unknown";
+}
+
+ControlCycle::ControlCycle(const model::Model& model, const ControlSetup& setup,
+                           const CycleConfig& config)
+    : model_(&model),
+      config_(config),
+      estimator_(model, setup.estimator, config.period),
+      controller_(model, setup.controller),
+      q_meas_(model::JointVector::Zero(model.n)) {}
+
+double ControlCycle::program_duration() const noexcept {
+  return sequencer_ ? sequencer_->duration() : 0.0;
+}
+
+void ControlCycle::start(drivers::ActuatorSet& io, const trajectory::Program& program,
+                         const trajectory::RebaseOptions& rebase) {
+  if (io.size() != model_->n)
+    throw std::runtime_error(fmt::format("the actuator set has {} drives but the model has {} chains",
+                                         io.size(), model_->n));
+  drivers::ActuatorFeedback fb;
+  const drivers::IoStatus s = io.read(fb);
+  if (s == drivers::IoStatus::kBusError || s == drivers::IoStatus::kNotReady)
+    throw std::runtime_error("cannot read the drives' positions at start-up");
+  model::JointVector q(model_->n);
+  for (int i = 0; i < model_->n; ++i) q[i] = fb.drive[i].position;
+  model::Data data(*model_);
+  model::Pose X;
+  const model::FkResult fk = model::forward_kinematics(*model_, data, q, model_->home, X);
+  if (fk.status != model::Status::kOk)
+    throw std::runtime_error(fmt::format(
+        "cannot find the plate pose from the joint angles (forward kinematics: {}, residual {:.3g} "
+        "rad): check the encoder offsets and that the robot is near its home pose",
+        model::to_string(fk.status), fk.residual));
+  estimator_.reset(q, X);
+  sequencer_.emplace(*model_, trajectory::rebase(program, X, rebase));
+  phase_ = CyclePhase::kEnabling;
+  cycle_ = 0;
+  enabling_cycles_ = 0;
+  t_ = 0.0;
+}
+
+CycleStatus ControlCycle::step(drivers::ActuatorSet& io, CycleRecord& rec) noexcept {
+  const int n = model_->n;
+  rec.cycle = cycle_++;
+  rec.status = CycleStatus::kOk;
+  rec.command.n = n;
+  rec.command.torque.fill(0.0);
+  rec.command.request = drivers::DriveRequest::kHold;
+
+  const drivers::IoStatus io_status = io.read(rec.feedback);
+  for (int i = 0; i < n; ++i) q_meas_[i] = rec.feedback.drive[i].position;
+  if (io_status == drivers::IoStatus::kBusError) rec.status = CycleStatus::kIoError;
+  if (estimator_.update(q_meas_) != EstimateStatus::kOk && rec.status == CycleStatus::kOk)
+    rec.status = CycleStatus::kEstimateFailed;
+  rec.est = estimator_.estimate();
+
+  if (!sequencer_) {
+    rec.status = CycleStatus::kControlFailed;
+    io.write(rec.command);
+    return rec.status;
+  }
+
+  if (phase_ == CyclePhase::kEnabling) {
+    bool all_enabled = true;
+    for (int i = 0; i < n; ++i)
+      all_enabled = all_enabled && rec.feedback.drive[i].state == drivers::DriveState::kEnabled;
+    if (all_enabled) {
+      phase_ = CyclePhase::kRunning;
+    } else {
+      // Target torque 0 until every drive is enabled: enabling never moves the robot.
+      rec.command.request = drivers::DriveRequest::kEnable;
+      ++enabling_cycles_;
+      if (enabling_cycles_ * config_.period > config_.enable_timeout)
+        rec.status = CycleStatus::kEnableTimeout;
+    }
+  }
+
+  rec.phase = phase_;
+  rec.t = t_;
+  const trajectory::SampleStatus ss = sequencer_->sample(t_, rec.ref);
+  if (phase_ == CyclePhase::kRunning && ss == trajectory::SampleStatus::kFinished)
+    phase_ = CyclePhase::kHolding;
+
+  if (phase_ != CyclePhase::kEnabling) {
+    const ControlStatus cs = controller_.update(rec.ref, rec.est, rec.control);
+    if (rec.status == CycleStatus::kOk && cs != ControlStatus::kOk)
+      rec.status = CycleStatus::kControlFailed;
+    if (rec.status == CycleStatus::kOk)
+      for (int i = 0; i < n; ++i) rec.command.torque[i] = rec.control.tau[i];
+    t_ += config_.period;
+  }
+  io.write(rec.command);
+  return rec.status;
+}
+
+}  // namespace dualv::control

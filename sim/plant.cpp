@@ -1,0 +1,383 @@
+#include "sim/plant.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "common/yaml_reader.hpp"
+#include "control/model/dynamics.hpp"
+#include "control/model/kinematics.hpp"
+
+namespace dualv::sim {
+
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586476925286766559;
+// advance() refuses periods needing more RK4 steps than this (a unit mistake, e.g. ms for s).
+constexpr double kMaxStepsPerAdvance = 1e6;
+
+// CiA 402 target torque 6071h: INT16 per mille of the rated torque 6076h, rounded half away
+// from zero and saturated to the INT16 range, as the host's wire codec does. Kept private
+// here on purpose: firmware_if/units.hpp owns the wire units; the plant only needs the
+// resolution the drive sees.
+double quantise_per_mille(double tau, double rated) noexcept {
+  const double pm = tau * 1000.0 / rated;
+  const double clamped = std::clamp(pm, -32768.0, 32767.0);
+  return std::round(clamped) * rated / 1000.0;  // std::round: half away from zero
+}
+
+void read_mismatch(YamlReader& parent, const char* key, MismatchPercent& m) {
+  YamlReader r = parent.child(key, false);
+  m.mass = r.number("mass_percent", m.mass);
+  m.inertia = r.number("inertia_percent", m.inertia);
+  // A body may be lighter than configured, but it must keep a positive mass and inertia.
+  r.require(m.mass > -100.0, "mass_percent", "must be > -100", m.mass);
+  r.require(m.inertia > -100.0, "inertia_percent", "must be > -100", m.inertia);
+  r.reject_unknown_keys();
+}
+
+// Solves the 3x3 symmetric positive definite M x = b (upper triangle of M used); false
+// when M is not positive definite (Eigen::LLT's criterion). Written out: Eigen's LLT cost
+// a fifth of a plant step. The same solver as model::forward_dynamics.
+bool solve_spd3(const model::Mat3& M, const model::Twist& b, model::Twist& x) noexcept {
+  const double d0 = M(0, 0);
+  if (!(d0 > 0.0)) return false;
+  // LDL^T without square roots; the pivots d_k are those of Cholesky squared, so the
+  // positive-definiteness test is the same.
+  const double i0 = 1.0 / d0;
+  const double l10 = M(0, 1) * i0, l20 = M(0, 2) * i0;
+  const double d1 = M(1, 1) - l10 * M(0, 1);
+  if (!(d1 > 0.0)) return false;
+  const double i1 = 1.0 / d1;
+  const double m21 = M(1, 2) - l20 * M(0, 1);
+  const double l21 = m21 * i1;
+  const double d2 = M(2, 2) - l20 * M(0, 2) - l21 * m21;
+  if (!(d2 > 0.0)) return false;
+  const double z0 = b[0];
+  const double z1 = b[1] - l10 * z0;
+  const double z2 = b[2] - l20 * z0 - l21 * z1;
+  x[2] = z2 / d2;
+  x[1] = z1 * i1 - l21 * x[2];
+  x[0] = z0 * i0 - l10 * x[1] - l20 * x[2];
+  return true;
+}
+
+model::Body scaled(const model::Body& b, const MismatchPercent& p) noexcept {
+  model::Body out = b;
+  out.mass *= 1.0 + p.mass / 100.0;
+  out.inertia *= 1.0 + p.inertia / 100.0;
+  return out;
+}
+
+}  // namespace
+
+PlantConfig PlantConfig::ideal() noexcept {
+  PlantConfig c;
+  c.friction.enabled = false;
+  c.mismatch.enabled = false;
+  c.encoder.enabled = false;
+  c.torque_quantisation.enabled = false;
+  c.current_loop.enabled = false;
+  c.saturation.enabled = false;
+  c.transport_delay.enabled = false;
+  return c;
+}
+
+PlantConfig load_plant_config(const YAML::Node& plant_node) {
+  ConfigProblems problems;
+  PlantConfig c;
+  // An absent `plant:` section is allowed: every knob at its default (all on).
+  YamlReader r(plant_node, "plant", problems.sink());
+  const double rate = r.number("integration_rate", 1.0 / c.max_step);
+  r.require(rate >= 1000.0 && rate <= 1e7, "integration_rate", "must be in [1000, 1e7] Hz", rate);
+  if (rate > 0.0) c.max_step = 1.0 / rate;
+  {
+    YamlReader f = r.child("friction", false);
+    c.friction.enabled = f.boolean("enabled", c.friction.enabled);
+    c.friction.coulomb = f.non_negative("coulomb", c.friction.coulomb);
+    c.friction.viscous = f.non_negative("viscous", c.friction.viscous);
+    c.friction.smoothing_velocity = f.positive("smoothing_velocity", c.friction.smoothing_velocity);
+    f.reject_unknown_keys();
+  }
+  {
+    YamlReader m = r.child("mismatch", false);
+    c.mismatch.enabled = m.boolean("enabled", c.mismatch.enabled);
+    read_mismatch(m, "crank", c.mismatch.crank);
+    read_mismatch(m, "coupler", c.mismatch.coupler);
+    read_mismatch(m, "plate", c.mismatch.plate);
+    m.reject_unknown_keys();
+  }
+  {
+    YamlReader e = r.child("encoder", false);
+    c.encoder.enabled = e.boolean("enabled", c.encoder.enabled);
+    const int cpr =
+        e.integer("counts_per_revolution", static_cast<int>(c.encoder.counts_per_revolution));
+    e.require(cpr > 0, "counts_per_revolution", "must be > 0", cpr);
+    c.encoder.counts_per_revolution = cpr;
+    e.reject_unknown_keys();
+  }
+  {
+    YamlReader t = r.child("torque_quantisation", false);
+    c.torque_quantisation.enabled = t.boolean("enabled", c.torque_quantisation.enabled);
+    c.torque_quantisation.rated_torque =
+        t.positive("rated_torque", c.torque_quantisation.rated_torque);
+    t.reject_unknown_keys();
+  }
+  {
+    YamlReader l = r.child("current_loop", false);
+    c.current_loop.enabled = l.boolean("enabled", c.current_loop.enabled);
+    c.current_loop.time_constant = l.positive("time_constant", c.current_loop.time_constant);
+    l.reject_unknown_keys();
+  }
+  {
+    YamlReader s = r.child("saturation", false);
+    c.saturation.enabled = s.boolean("enabled", c.saturation.enabled);
+    c.saturation.peak_torque = s.positive("peak_torque", c.saturation.peak_torque);
+    s.reject_unknown_keys();
+  }
+  {
+    YamlReader d = r.child("transport_delay", false);
+    c.transport_delay.enabled = d.boolean("enabled", c.transport_delay.enabled);
+    c.transport_delay.cycles = d.integer("cycles", c.transport_delay.cycles);
+    d.require(c.transport_delay.cycles >= 1 && c.transport_delay.cycles <= kMaxDelayCycles,
+              "cycles", fmt::format("must be in [1, {}]", kMaxDelayCycles),
+              c.transport_delay.cycles);
+    d.reject_unknown_keys();
+  }
+  r.reject_unknown_keys();
+  problems.finish();
+  return c;
+}
+
+PlantConfig load_plant_config_file(const std::string& path) {
+  const YAML::Node root = YamlReader::load_file(path);
+  return load_plant_config(root["plant"]);
+}
+
+model::Model make_true_model(const model::Model& configured, const PlantConfig& config) noexcept {
+  model::Model m = configured;
+  if (!config.mismatch.enabled) return m;
+  for (int i = 0; i < m.n; ++i) {
+    m.chains[i].crank = scaled(configured.chains[i].crank, config.mismatch.crank);
+    m.chains[i].coupler = scaled(configured.chains[i].coupler, config.mismatch.coupler);
+  }
+  m.plate = scaled(configured.plate, config.mismatch.plate);
+  return m;
+}
+
+const char* to_string(PlantStatus s) noexcept {
+  switch (s) {
+    case PlantStatus::kOk:
+      return "ok";
+    case PlantStatus::kUnreachable:
+      return "unreachable";
+    case PlantStatus::kInvalidCommand:
+      return "invalid command";
+    case PlantStatus::kInvalidPeriod:
+      return "invalid period";
+  }
+  return "unknown";
+}
+
+Plant::Plant(const model::Model& configured, const PlantConfig& config)
+    : true_model_(make_true_model(configured, config)), config_(config), data_(true_model_) {
+  const int n = true_model_.n;
+  for (auto& slot : delay_line_) slot = model::JointVector::Zero(n);
+  pending_ = model::JointVector::Zero(n);
+  target_ = model::JointVector::Zero(n);
+  tau0_ = model::JointVector::Zero(n);
+  motor_ = model::JointVector::Zero(n);
+  friction_ = model::JointVector::Zero(n);
+  out_.q = model::JointVector::Zero(n);
+  out_.q_dot = model::JointVector::Zero(n);
+  out_.q_measured = model::JointVector::Zero(n);
+  out_.tau_command = model::JointVector::Zero(n);
+  out_.tau_target = model::JointVector::Zero(n);
+  out_.tau_applied = model::JointVector::Zero(n);
+  out_.tau_friction = model::JointVector::Zero(n);
+  out_.tau_internal = model::JointVector::Zero(n);
+  if (reset(true_model_.home) != PlantStatus::kOk) {
+    // load_model() guarantees a usable home; a hand-built model may not have one.
+    latched_ = PlantStatus::kUnreachable;
+  }
+}
+
+PlantStatus Plant::reset(const model::Pose& X, const model::Twist& X_dot) noexcept {
+  const model::Status s = model::update_kinematics(true_model_, data_, X, X_dot);
+  if (s != model::Status::kOk) return PlantStatus::kUnreachable;
+  y_.X = X;
+  y_.X_dot = X_dot;
+  latched_ = PlantStatus::kOk;
+  for (auto& slot : delay_line_) slot.setZero();
+  head_ = 0;
+  pending_.setZero();
+  target_.setZero();
+  tau0_.setZero();
+  out_.time = 0.0;
+  out_.cycle = 0;
+  out_.fault = model::Status::kOk;
+  out_.tau_command.setZero();
+  out_.q = data_.q;  // the unwrapping of later angles starts from here
+  refresh_output();
+  return PlantStatus::kOk;
+}
+
+double Plant::drive_target(double tau) const noexcept {
+  if (config_.torque_quantisation.enabled)
+    tau = quantise_per_mille(tau, config_.torque_quantisation.rated_torque);
+  if (config_.saturation.enabled) {
+    const double peak = config_.saturation.peak_torque;
+    tau = std::clamp(tau, -peak, peak);
+  }
+  return tau;
+}
+
+PlantStatus Plant::command(const model::JointVector& tau) noexcept {
+  const int n = true_model_.n;
+  if (tau.size() != n || !tau.allFinite()) {
+    // A drive given garbage produces no torque (firmware_if's codecs map NaN to 0 too).
+    out_.tau_command.setZero();
+    pending_.setZero();
+    return PlantStatus::kInvalidCommand;
+  }
+  out_.tau_command = tau;
+  for (int i = 0; i < n; ++i) pending_[i] = drive_target(tau[i]);
+  return PlantStatus::kOk;
+}
+
+void Plant::friction(const model::JointVector& q_dot, model::JointVector& f) const noexcept {
+  const auto& fr = config_.friction;
+  if (!fr.enabled) {
+    f.setZero();
+    return;
+  }
+  for (int i = 0; i < true_model_.n; ++i) {
+    const double z = q_dot[i] / fr.smoothing_velocity;
+    // tanh(z) rounds to +-1 for |z| > 19.1: skip the (slow) call there, same result.
+    const double sign = std::abs(z) > 19.5 ? std::copysign(1.0, z) : std::tanh(z);
+    f[i] = fr.coulomb * sign + fr.viscous * q_dot[i];
+  }
+}
+
+model::Status Plant::acceleration(const model::Pose& X, const model::Twist& X_dot,
+                                  const model::JointVector& tau_motor,
+                                  model::Twist& X_dd) noexcept {
+  // The equation of model::forward_dynamics, X_dd = M^-1 (Jm^T tau - h - g), with the
+  // joint friction subtracted from the motor torques. Friction needs q_dot = Jm X_dot,
+  // which update_dynamics computes on the way, so the solve is written out here instead
+  // of calling forward_dynamics after a second kinematics pass (tests check both agree).
+  if (tau_motor.size() != true_model_.n) return model::Status::kInvalidInput;
+  const model::Status s = model::update_dynamics(true_model_, data_, X, X_dot);
+  if (s != model::Status::kOk) return s;
+  friction(data_.q_dot, friction_);
+  model::Twist F = -data_.h - data_.g;
+  for (int i = 0; i < true_model_.n; ++i)
+    F += (tau_motor[i] - friction_[i]) * data_.Jm.row(i).transpose();  // F_X = Jm^T tau
+  if (!solve_spd3(data_.M, F, X_dd)) return model::Status::kParallelSingular;
+  if (!X_dd.allFinite()) return model::Status::kInvalidInput;
+  return model::Status::kOk;
+}
+
+model::Status Plant::derivative(const State& y, double decay, State& dy) noexcept {
+  // Motor torque `decay` = exp(-s / T) into the step: the exact solution of the current
+  // loop's lag T tau_dot = target - tau with the target held over the cycle.
+  motor_ = target_ + (tau0_ - target_) * decay;
+  dy.X = y.X_dot;
+  return acceleration(y.X, y.X_dot, motor_, dy.X_dot);
+}
+
+PlantStatus Plant::advance(double period) noexcept {
+  if (!(period > 0.0) || !std::isfinite(period) || period / config_.max_step > kMaxStepsPerAdvance)
+    return PlantStatus::kInvalidPeriod;
+  if (latched_ != PlantStatus::kOk) return latched_;
+
+  // Transport delay: the command of cycle k - D acts during cycle k (D = 0 when off).
+  const int D = config_.transport_delay.enabled ? config_.transport_delay.cycles : 0;
+  const int slots = D + 1;
+  delay_line_[head_] = pending_;
+  target_ = delay_line_[(head_ + 1) % slots];
+  head_ = (head_ + 1) % slots;
+
+  // Equal steps no longer than max_step (the 1e-9 keeps 1 ms / 0.1 ms at 10 steps, not 11).
+  const int steps = std::max(1, static_cast<int>(std::ceil(period / config_.max_step - 1e-9)));
+  const double h = period / steps;
+  const bool lag = config_.current_loop.enabled;
+  const double e_half = lag ? std::exp(-0.5 * h / config_.current_loop.time_constant) : 0.0;
+  const double e_full = e_half * e_half;
+
+  for (int k = 0; k < steps; ++k) {
+    // Classic RK4 on y = (X, X_dot); stage torques at s = 0, h/2, h of this step.
+    State k1, k2, k3, k4, tmp;
+    model::Status s = derivative(y_, lag ? 1.0 : 0.0, k1);
+    if (s == model::Status::kOk) {
+      tmp.X = y_.X + 0.5 * h * k1.X;
+      tmp.X_dot = y_.X_dot + 0.5 * h * k1.X_dot;
+      s = derivative(tmp, e_half, k2);
+    }
+    if (s == model::Status::kOk) {
+      tmp.X = y_.X + 0.5 * h * k2.X;
+      tmp.X_dot = y_.X_dot + 0.5 * h * k2.X_dot;
+      s = derivative(tmp, e_half, k3);
+    }
+    if (s == model::Status::kOk) {
+      tmp.X = y_.X + h * k3.X;
+      tmp.X_dot = y_.X_dot + h * k3.X_dot;
+      s = derivative(tmp, e_full, k4);
+    }
+    if (s == model::Status::kOk) {
+      tmp.X = y_.X + (h / 6.0) * (k1.X + 2.0 * k2.X + 2.0 * k3.X + k4.X);
+      tmp.X_dot = y_.X_dot + (h / 6.0) * (k1.X_dot + 2.0 * k2.X_dot + 2.0 * k3.X_dot + k4.X_dot);
+      if (!tmp.X.allFinite() || !tmp.X_dot.allFinite()) s = model::Status::kInvalidInput;
+    }
+    if (s != model::Status::kOk) {
+      // Freeze at the last good state (y_ untouched) and latch.
+      latched_ = PlantStatus::kUnreachable;
+      out_.fault = s;
+      break;
+    }
+    y_ = tmp;
+    tau0_ = target_ + (tau0_ - target_) * e_full;
+    out_.time += h;
+  }
+  if (!lag) tau0_ = target_;
+  ++out_.cycle;
+  refresh_output();
+  return latched_;
+}
+
+void Plant::refresh_output() noexcept {
+  out_.X = y_.X;
+  out_.X_dot = y_.X_dot;
+  out_.tau_target = target_;
+  out_.tau_applied = tau0_;
+  if (model::update_kinematics(true_model_, data_, y_.X, y_.X_dot) != model::Status::kOk) return;
+  const int n = true_model_.n;
+  // Continuous joint angles: IK's atan2 branch may jump by 2 pi, a real joint does not.
+  for (int i = 0; i < n; ++i) out_.q[i] += std::remainder(data_.q[i] - out_.q[i], kTwoPi);
+  out_.q_dot = data_.q_dot;
+  const double resolution = kTwoPi / static_cast<double>(config_.encoder.counts_per_revolution);
+  for (int i = 0; i < n; ++i) {
+    // Round to the nearest count (error within +-1/2 count): the position the drive's
+    // wire codec (rad_to_counts) would produce from a continuous angle.
+    const double c = std::round(out_.q[i] / resolution);
+    out_.counts[i] = static_cast<std::int64_t>(c);
+    out_.q_measured[i] = config_.encoder.enabled ? c * resolution : out_.q[i];
+  }
+  friction(out_.q_dot, out_.tau_friction);
+  if (model::update_projectors(true_model_, data_) == model::Status::kOk) {
+    out_.tau_internal.noalias() = data_.N * out_.tau_applied;
+    out_.internal_norm = out_.tau_internal.norm();
+  }
+}
+
+double Plant::kinetic_energy() noexcept {
+  return model::kinetic_energy(true_model_, data_, y_.X, y_.X_dot);
+}
+
+double Plant::potential_energy() noexcept {
+  return model::potential_energy(true_model_, data_, y_.X);
+}
+
+}  // namespace dualv::sim
