@@ -2,9 +2,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
-#include <array>
 #include <cmath>
-#include <limits>
 
 #include "control/model/planar.hpp"
 
@@ -24,42 +22,6 @@ constexpr double kParallelEpsilon = 1e-12;
 bool finite(const Eigen::Vector3d& v) noexcept { return v.allFinite(); }
 
 double wrap_angle(double a) noexcept { return std::remainder(a, 2.0 * M_PI); }
-
-// atan2 for the IK's crank angle, within 4.5e-16 rad of std::atan2 (checked on 2e7 random
-// points) at about half its cost (it was a third of a forward-dynamics evaluation): the
-// ratio is reduced to [0, 1], then to |u| <= 1/16 around the nearest k/8 with
-// atan(t) = atan(k/8) + atan(u), u = (t - k/8) / (1 + t k/8); atan(k/8) is tabulated
-// (std::atan, printed with %a) and atan(u) is its odd Taylor series to u^17 (truncation
-// below 1e-20). Zero, infinite and NaN arguments are left to std::atan2.
-double fast_atan2(double y, double x) noexcept {
-  static constexpr std::array<double, 9> kAtanEighths{
-      0x0p+0,               0x1.fd5ba9aac2f6ep-4, 0x1.f5b75f92c80ddp-3,
-      0x1.6f61941e4def1p-2, 0x1.dac670561bb4fp-2, 0x1.1e00babdefeb4p-1,
-      0x1.4978fa3269ee1p-1, 0x1.700a7c5784634p-1, 0x1.921fb54442d18p-1};
-  constexpr double kPiLo = 1.2246467991473532e-16;     // pi - M_PI
-  constexpr double kPiHalfLo = 6.123233995736766e-17;  // pi/2 - M_PI_2
-  const double ax = std::abs(x), ay = std::abs(y);
-  const bool swap = ay > ax;
-  const double num = swap ? ax : ay, den = swap ? ay : ax;
-  if (!(den > 0.0) || !(den < std::numeric_limits<double>::infinity())) return std::atan2(y, x);
-  const double t = num / den;  // [0, 1]
-  const int k = static_cast<int>(t * 8.0 + 0.5);
-  const double c = k * 0.125;
-  const double u = (t - c) / (1.0 + c * t);  // |u| <= 1/16
-  const double u2 = u * u;
-  double p = 1.0 / 17.0;
-  p = p * u2 - 1.0 / 15.0;
-  p = p * u2 + 1.0 / 13.0;
-  p = p * u2 - 1.0 / 11.0;
-  p = p * u2 + 1.0 / 9.0;
-  p = p * u2 - 1.0 / 7.0;
-  p = p * u2 + 1.0 / 5.0;
-  p = p * u2 - 1.0 / 3.0;
-  double a = kAtanEighths[k] + (u + u * u2 * p);
-  if (swap) a = (M_PI_2 - a) + kPiHalfLo;
-  if (std::signbit(x)) a = (M_PI - a) + kPiLo;
-  return std::copysign(a, y);
-}
 
 // Pseudo-angle of v: strictly increasing with atan2(v.y, v.x) over (-pi, pi] (signed zeros
 // included), range (-2, 2], no transcendental call. Angles pi apart differ by exactly 2.
@@ -96,7 +58,7 @@ Status inverse_kinematics(const Model& model, Data& data, const Pose& X, JointVe
     // One atan2 gives q modulo 2 pi; keep the branch of atan2(d) + s_i gamma, which lies in
     // (-2 pi, 2 pi]: it passed the atan2 cut iff the crank's angle is below (s_i = +1) or
     // above (s_i = -1) the angle of d, i.e. by at least pi (pseudo-angles differ by >= 2).
-    double qi = fast_atan2(cs.crank.y(), cs.crank.x());
+    double qi = std::atan2(cs.crank.y(), cs.crank.x());
     const double dp = pseudo_angle(cs.crank) - pseudo_angle(d);
     if (ch.working_mode > 0 && dp < -1.0) qi += 2.0 * M_PI;
     if (ch.working_mode < 0 && dp > 1.0) qi -= 2.0 * M_PI;

@@ -1,0 +1,73 @@
+// Simulation speed of the plant: seconds of robot time per second of wall time at 1 kHz
+// control / 10 kHz RK4 (issue 4 target: > 200x). One benchmark iteration is one controller
+// cycle: command + advance(1 ms) (10 RK4 steps, 40 forward-dynamics evaluations) + output.
+// The "robot_s_per_wall_s" counter is the speed-up over real time.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+
+#include "control/model/model_config.hpp"
+#include "sim/plant.hpp"
+#include "sim/sim_actuator_set.hpp"
+
+namespace {
+
+using namespace dualv;
+
+constexpr double kCycle = 1e-3;  // [s] 1 kHz control
+
+const model::Model& dual_v() {
+  static const model::Model m =
+      model::load_model_file(std::string(DUALV_SOURCE_DIR) + "/config/dualv.yaml");
+  return m;
+}
+
+// Holds a fixed sinusoidal torque pattern (2 Hz, a few N m: the plate oscillates by
+// millimetres about home) and counts robot time.
+void run_plant(benchmark::State& state, const sim::PlantConfig& config) {
+  sim::Plant plant(dual_v(), config);
+  model::JointVector tau(4);
+  std::int64_t k = 0;
+  for (auto _ : state) {
+    const double s = std::sin(2.0 * M_PI * 2.0 * kCycle * static_cast<double>(k++));
+    tau << 3.0 * s, -2.0 * s, 1.5 * s, -1.0 * s;
+    plant.command(tau);
+    if (plant.advance(kCycle) != sim::PlantStatus::kOk) plant.reset(dual_v().home);
+    benchmark::DoNotOptimize(plant.output().X.data());
+  }
+  state.counters["robot_s_per_wall_s"] = benchmark::Counter(
+      kCycle * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+
+void BM_PlantCycleAllKnobs(benchmark::State& state) {
+  run_plant(state,
+            sim::load_plant_config_file(std::string(DUALV_SOURCE_DIR) + "/config/dualv.yaml"));
+}
+BENCHMARK(BM_PlantCycleAllKnobs);
+
+void BM_PlantCycleIdeal(benchmark::State& state) { run_plant(state, sim::PlantConfig::ideal()); }
+BENCHMARK(BM_PlantCycleIdeal);
+
+// The in-process closed-loop I/O around it: read + write through the actuator set.
+void BM_SimActuatorSetCycle(benchmark::State& state) {
+  sim::Plant plant(dual_v(), sim::PlantConfig{});
+  sim::SimActuatorSet set(plant);
+  drivers::ActuatorFeedback fb;
+  drivers::ActuatorCommand cmd;
+  cmd.n = 4;
+  cmd.request = drivers::DriveRequest::kEnable;
+  std::int64_t k = 0;
+  for (auto _ : state) {
+    set.read(fb);
+    const double s = std::sin(2.0 * M_PI * 2.0 * kCycle * static_cast<double>(k++));
+    for (int i = 0; i < 4; ++i) cmd.torque[i] = (i % 2 ? -2.0 : 2.0) * s;
+    set.write(cmd);
+    if (plant.advance(kCycle) != sim::PlantStatus::kOk) plant.reset(dual_v().home);
+    benchmark::DoNotOptimize(fb.drive[0].position);
+  }
+  state.counters["robot_s_per_wall_s"] = benchmark::Counter(
+      kCycle * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_SimActuatorSetCycle);
+
+}  // namespace
