@@ -86,15 +86,20 @@ ControlStatus Controller::update(const trajectory::Reference& ref, const StateEs
     out.tau += out.tau_ff;
   }
 
-  // Projectors at the estimated pose (eq. 19-20).
-  if (model::update_kinematics(*model_, measured_, est.X, model::Twist::Zero()) !=
-          model::Status::kOk ||
-      model::update_projectors(*model_, measured_) != model::Status::kOk) {
-    out.tau.setZero(n);
-    return ControlStatus::kModelFailed;
+  // Projectors at the estimated pose (eq. 19-20), from the estimator's model evaluation when
+  // it has one (the normal case), else evaluated here.
+  const model::Data* at_estimate = est.model;
+  if (!at_estimate) {
+    if (model::update_kinematics(*model_, measured_, est.X, model::Twist::Zero()) !=
+            model::Status::kOk ||
+        model::update_projectors(*model_, measured_) != model::Status::kOk) {
+      out.tau.setZero(n);
+      return ControlStatus::kModelFailed;
+    }
+    at_estimate = &measured_;
   }
-  if (config_.projection) out.tau = measured_.R * out.tau;
-  out.tau_internal.noalias() = measured_.N * out.tau;
+  if (config_.projection) out.tau = at_estimate->R * out.tau;
+  out.tau_internal.noalias() = at_estimate->N * out.tau;
   if (!out.tau.allFinite()) {
     out.tau.setZero(n);
     return ControlStatus::kModelFailed;

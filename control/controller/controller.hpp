@@ -62,7 +62,7 @@ class Controller {
   const model::Model* model_;
   ControllerConfig config_;
   model::Data desired_;   // model data at X_d (feedforward)
-  model::Data measured_;  // model data at the estimate (projection)
+  model::Data measured_;  // model data at the estimate when the estimate carries none
 };
 
 }  // namespace dualv::control

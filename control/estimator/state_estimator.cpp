@@ -1,6 +1,5 @@
 #include "control/estimator/state_estimator.hpp"
 
-#include <Eigen/LU>
 #include <cmath>
 #include <stdexcept>
 
@@ -24,6 +23,10 @@ void StateEstimator::reset(const model::JointVector& q, const model::Pose& X) no
   est_.X = X;
   est_.X_dot.setZero();
   est_.status = EstimateStatus::kOk;
+  est_.model = nullptr;
+  if (model::update_kinematics(*model_, data_, X, model::Twist::Zero()) == model::Status::kOk &&
+      model::update_projectors(*model_, data_) == model::Status::kOk)
+    est_.model = &data_;
 }
 
 EstimateStatus StateEstimator::update(const model::JointVector& q_measured) noexcept {
@@ -38,11 +41,15 @@ EstimateStatus StateEstimator::update(const model::JointVector& q_measured) noex
   model::Pose X;
   const model::FkResult fk = model::forward_kinematics(*model_, data_, q_measured, est_.X, X);
   est_.fk_iterations = fk.iterations;
+  est_.fk_residual = fk.residual;
+  est_.model = nullptr;
   if (fk.status != model::Status::kOk) return est_.status = EstimateStatus::kFkFailed;
   est_.X = X;
-  // forward_kinematics leaves data_ at X: X_dot = (Jm^T Jm)^-1 Jm^T q_dot.
-  const model::Mat3 JtJ = data_.Jm.transpose() * data_.Jm;
-  est_.X_dot = JtJ.partialPivLu().solve(data_.Jm.transpose() * est_.q_dot);
+  // forward_kinematics leaves data_ at X. X_dot = (Jm^T Jm)^-1 Jm^T q_dot = (Jm^{T*})^T q_dot.
+  if (model::update_projectors(*model_, data_) != model::Status::kOk)
+    return est_.status = EstimateStatus::kFkFailed;
+  est_.X_dot.noalias() = data_.JmT_pinv.transpose() * est_.q_dot;
+  est_.model = &data_;
   return est_.status = EstimateStatus::kOk;
 }
 

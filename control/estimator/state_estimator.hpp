@@ -31,6 +31,10 @@ struct StateEstimate {
   model::Twist X_dot = model::Twist::Zero();
   EstimateStatus status = EstimateStatus::kOk;
   int fk_iterations = 0;
+  double fk_residual = 0.0;  // encoder disagreement at X [rad] (forward_kinematics)
+  // The model evaluated at X (Jm, Jm^{T*}, R, N), owned by the estimator; valid while status
+  // is kOk. The controller projects with it instead of evaluating the model again.
+  const model::Data* model = nullptr;
 };
 
 class StateEstimator {

@@ -77,6 +77,12 @@ TEST(Program, LoadsThePaperExperiment) {
   EXPECT_NE(p.segments()[1].label.find("program.segments[1] (shape circle)"), std::string::npos);
 }
 
+TEST(Program, PaperExperimentStaysInTheConfiguredWorkspace) {
+  ProgramContext ctx = home_context();
+  ctx.workspace = test::dualv_trajectory_config().limits.workspace;
+  EXPECT_NO_THROW(load_program_file(test::source_path("config/paper.yaml"), ctx));
+}
+
 TEST(Program, RetimedJoinsAreContinuousAndShapesStartAndEndAtRest) {
   const Program p = paper_program();
   for (const Segment& s : p.segments()) {

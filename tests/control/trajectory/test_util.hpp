@@ -4,6 +4,8 @@
 
 #include <string>
 
+#include "control/model/model_config.hpp"
+#include "control/trajectory/limits.hpp"
 #include "control/trajectory/program.hpp"
 
 namespace dualv::trajectory::test {
@@ -37,13 +39,6 @@ template <class A, class B>
 double max_diff(const A& a, const B& b) {
   return (a - b).cwiseAbs().maxCoeff();
 }
-
-}  // namespace dualv::trajectory::test
-
-#include "control/model/model_config.hpp"
-#include "control/trajectory/limits.hpp"
-
-namespace dualv::trajectory::test {
 
 inline const model::Model& dualv_model() {
   static const model::Model m = model::load_model_file(source_path("config/dualv.yaml"));
