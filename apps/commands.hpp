@@ -11,5 +11,10 @@ int& exit_code() noexcept;
 
 void register_model_command(CLI::App& app);
 void register_run_command(CLI::App& app);
+void register_status_command(CLI::App& app);
+void register_estop_command(CLI::App& app);
+void register_reset_command(CLI::App& app);
+void register_start_command(CLI::App& app);
+void register_check_target_command(CLI::App& app);
 
 }  // namespace dualv::apps

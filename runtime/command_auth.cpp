@@ -1,0 +1,287 @@
+#include "runtime/command_auth.hpp"
+
+#include <fmt/format.h>
+#include <sodium.h>
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <stdexcept>
+
+#include "common/config_error.hpp"
+
+namespace dualv::runtime {
+
+static_assert(crypto_auth_hmacsha256_BYTES == 32 && crypto_auth_hmacsha256_KEYBYTES == kKeyBytes);
+
+namespace {
+
+void init_sodium() {
+  // Idempotent and thread-safe; -1 only when no entropy source exists.
+  if (sodium_init() < 0) throw std::runtime_error("libsodium failed to initialise");
+}
+
+int hex_value(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+std::vector<unsigned char> signing_payload(const dualv_lcm::command_t& cmd) {
+  dualv_lcm::command_t unsigned_copy = cmd;
+  std::fill(std::begin(unsigned_copy.hmac), std::end(unsigned_copy.hmac), 0);
+  std::vector<unsigned char> buf(static_cast<std::size_t>(unsigned_copy.getEncodedSize()));
+  unsigned_copy.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  return buf;
+}
+
+bool all_zero(const std::uint8_t* p, std::size_t n) {
+  // Constant-time (sodium_is_zero): no timing hint about the signature.
+  return sodium_is_zero(p, n) == 1;
+}
+
+bool printable(const std::string& s) {
+  return std::all_of(s.begin(), s.end(), [](unsigned char c) { return std::isprint(c) != 0; });
+}
+
+}  // namespace
+
+const char* to_string(CommandKind kind) noexcept {
+  switch (kind) {
+    case CommandKind::kStartProgram:
+      return "start";
+    case CommandKind::kStop:
+      return "stop";
+    case CommandKind::kEstop:
+      return "estop";
+    case CommandKind::kReset:
+      return "reset";
+  }
+  return "unknown";
+}
+
+const char* to_string(CommandVerdict v) noexcept {
+  switch (v) {
+    case CommandVerdict::kAccepted:
+      return "accepted";
+    case CommandVerdict::kMalformed:
+      return "malformed";
+    case CommandVerdict::kUnsigned:
+      return "unsigned";
+    case CommandVerdict::kUnknownKey:
+      return "unknown key";
+    case CommandVerdict::kBadSignature:
+      return "bad signature";
+    case CommandVerdict::kStale:
+      return "stale";
+    case CommandVerdict::kReplayed:
+      return "replayed";
+  }
+  return "unknown";
+}
+
+CommandKey load_command_key(const std::string& path, std::vector<std::string>* warnings) {
+  init_sodium();
+  const std::string create_hint =
+      fmt::format("create one with: head -c 32 /dev/urandom > {0} && chmod 600 {0}", path);
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0)
+    throw ConfigError(
+        {fmt::format("key file {}: {}; {}", path, std::strerror(errno), create_hint)});
+  if (!S_ISREG(st.st_mode))
+    throw ConfigError({fmt::format("key file {}: not a regular file", path)});
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw ConfigError({fmt::format("key file {}: cannot open ({})", path, std::strerror(errno))});
+  std::string content((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+
+  CommandKey key;
+  key.id = std::filesystem::path(path).stem().string();
+  if (content.size() == kKeyBytes) {
+    std::memcpy(key.bytes.data(), content.data(), kKeyBytes);
+  } else {
+    std::string hex = content;
+    hex.erase(std::remove_if(hex.begin(), hex.end(),
+                             [](unsigned char c) { return std::isspace(c) != 0; }),
+              hex.end());
+    bool ok = hex.size() == 2 * kKeyBytes;
+    for (std::size_t i = 0; ok && i < kKeyBytes; ++i) {
+      const int hi = hex_value(hex[2 * i]);
+      const int lo = hex_value(hex[2 * i + 1]);
+      ok = hi >= 0 && lo >= 0;
+      if (ok) key.bytes[i] = static_cast<unsigned char>(hi * 16 + lo);
+    }
+    if (!ok)
+      throw ConfigError({fmt::format(
+          "key file {}: must hold exactly 32 bytes, raw or as 64 hex digits (got {} bytes); {}",
+          path, content.size(), create_hint)});
+  }
+  if (sodium_is_zero(key.bytes.data(), key.bytes.size()) == 1)
+    throw ConfigError({fmt::format("key file {}: the key is all zeros; {}", path, create_hint)});
+  if (key.id.empty()) throw ConfigError({fmt::format("key file {}: name gives no key id", path)});
+  if (warnings != nullptr && (st.st_mode & (S_IROTH | S_IWOTH)) != 0)
+    warnings->push_back(fmt::format(
+        "key file {} is {} by every user (mode {:04o}): anyone on this machine can sign "
+        "commands that move the robot; run: chmod 600 {}",
+        path, (st.st_mode & S_IWOTH) != 0 ? "writable" : "readable", st.st_mode & 07777, path));
+  return key;
+}
+
+std::vector<CommandKey> load_command_keys(const std::string& dir,
+                                          std::vector<std::string>* warnings) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec))
+    throw ConfigError(
+        {fmt::format("command key folder {}: not a folder; create it (mkdir -m 750 {}) and put one "
+                     "<operator>.key per operator in it",
+                     dir, dir)});
+  std::vector<std::string> files;
+  for (const auto& entry : fs::directory_iterator(dir, ec))
+    if (entry.is_regular_file() && entry.path().extension() == ".key")
+      files.push_back(entry.path().string());
+  std::sort(files.begin(), files.end());  // deterministic order, independent of the file system
+  std::vector<CommandKey> keys;
+  for (const auto& f : files) keys.push_back(load_command_key(f, warnings));
+  if (keys.empty() && warnings != nullptr)
+    warnings->push_back(fmt::format(
+        "no command keys in {}: only e-stops will be accepted (start and reset need a key)", dir));
+  return keys;
+}
+
+void sign_command(dualv_lcm::command_t& cmd, const CommandKey& key) {
+  init_sodium();
+  cmd.key_id = key.id;
+  const std::vector<unsigned char> payload = signing_payload(cmd);
+  crypto_auth_hmacsha256(reinterpret_cast<unsigned char*>(cmd.hmac), payload.data(), payload.size(),
+                         key.bytes.data());
+}
+
+dualv_lcm::command_t make_command(CommandKind kind, const std::string& program, std::int64_t utime,
+                                  std::int64_t sequence, const CommandKey* key) {
+  dualv_lcm::command_t cmd;
+  cmd.utime = utime;
+  cmd.sequence = sequence;
+  cmd.kind = static_cast<std::int8_t>(kind);
+  cmd.program = program;
+  cmd.key_id = "";
+  std::fill(std::begin(cmd.hmac), std::end(cmd.hmac), 0);
+  if (key != nullptr) sign_command(cmd, *key);
+  return cmd;
+}
+
+CommandVerifier::CommandVerifier(std::vector<CommandKey> keys, CommandAuthConfig config)
+    : keys_(std::move(keys)), config_(config) {
+  init_sodium();
+  for (std::size_t i = 0; i < keys_.size(); ++i)
+    for (std::size_t j = i + 1; j < keys_.size(); ++j)
+      if (keys_[i].id == keys_[j].id)
+        throw ConfigError({fmt::format("two command keys have the id '{}'", keys_[i].id)});
+}
+
+std::uint64_t CommandVerifier::refused() const noexcept {
+  std::uint64_t n = 0;
+  for (int i = 1; i < kVerdictCount; ++i) n += counts_[i];
+  return n;
+}
+
+VerifyResult CommandVerifier::finish(VerifyResult r) {
+  ++counts_[static_cast<int>(r.verdict)];
+  return r;
+}
+
+VerifyResult CommandVerifier::verify_encoded(const void* data, std::size_t size,
+                                             std::int64_t now_utime) {
+  VerifyResult r;
+  int used = -1;
+  try {
+    // lcm-gen's decoder throws std::length_error on a zero or negative string
+    // length (it checks only the upper bound): that is a malformed message too.
+    if (size <= 1'000'000) used = r.command.decode(data, 0, static_cast<int>(size));
+  } catch (const std::exception&) {
+    used = -1;
+  }
+  if (used < 0 || static_cast<std::size_t>(used) != size) {
+    r.verdict = CommandVerdict::kMalformed;
+    r.reason = used < 0 ? fmt::format("{} bytes that do not decode as command_t", size)
+                        : fmt::format("{} trailing bytes after command_t", size - used);
+    return finish(std::move(r));
+  }
+  // The signature covers the canonical encoding. lcm-gen's decoder ignores
+  // the NUL terminator bytes of strings, so bytes that differ from the
+  // canonical encoding would otherwise still verify: refuse them.
+  std::vector<unsigned char> canonical(size);
+  r.command.encode(canonical.data(), 0, static_cast<int>(size));
+  if (std::memcmp(canonical.data(), data, size) != 0) {
+    r.verdict = CommandVerdict::kMalformed;
+    r.reason = "non-canonical encoding (a string terminator was altered)";
+    return finish(std::move(r));
+  }
+  return verify(r.command, now_utime);
+}
+
+VerifyResult CommandVerifier::verify(const dualv_lcm::command_t& cmd, std::int64_t now_utime) {
+  VerifyResult r;
+  r.command = cmd;
+  auto refuse = [&](CommandVerdict v, std::string why) {
+    r.verdict = v;
+    r.reason = std::move(why);
+    return finish(std::move(r));
+  };
+
+  const int k = cmd.kind;
+  if (k < dualv_lcm::command_t::KIND_START_PROGRAM || k > dualv_lcm::command_t::KIND_RESET)
+    return refuse(CommandVerdict::kMalformed, fmt::format("unknown command kind {}", k));
+  const auto kind = static_cast<CommandKind>(cmd.kind);
+  if (cmd.program.size() > config_.max_program_name || !printable(cmd.program) ||
+      cmd.key_id.size() > 64 || !printable(cmd.key_id))
+    return refuse(CommandVerdict::kMalformed, "program name or key id too long or not printable");
+  if (kind == CommandKind::kStartProgram && cmd.program.empty())
+    return refuse(CommandVerdict::kMalformed, "start without a program name");
+
+  if (kind == CommandKind::kEstop) {
+    r.verdict = CommandVerdict::kAccepted;
+    r.reason = "e-stop (accepted signed or not)";
+    return finish(std::move(r));
+  }
+
+  if (all_zero(reinterpret_cast<const std::uint8_t*>(cmd.hmac), sizeof(cmd.hmac)))
+    return refuse(CommandVerdict::kUnsigned,
+                  fmt::format("{} needs a signature (use --key)", to_string(kind)));
+  const auto key = std::find_if(keys_.begin(), keys_.end(),
+                                [&](const CommandKey& kk) { return kk.id == cmd.key_id; });
+  if (key == keys_.end())
+    return refuse(CommandVerdict::kUnknownKey, fmt::format("no key with id '{}'", cmd.key_id));
+  const std::vector<unsigned char> payload = signing_payload(cmd);
+  if (crypto_auth_hmacsha256_verify(reinterpret_cast<const unsigned char*>(cmd.hmac),
+                                    payload.data(), payload.size(), key->bytes.data()) != 0)
+    return refuse(CommandVerdict::kBadSignature,
+                  fmt::format("signature does not match key '{}'", cmd.key_id));
+  // Time and sequence only after the signature: an unauthenticated message
+  // must not be able to advance the replay window.
+  const std::int64_t age = now_utime - cmd.utime;
+  if (age > config_.max_age_us || -age > config_.max_future_us)
+    return refuse(CommandVerdict::kStale,
+                  fmt::format("sent {:.3f} s {} (accepted: up to {:.3f} s old, {:.3f} s ahead): "
+                              "check both clocks (NTP)",
+                              static_cast<double>(age < 0 ? -age : age) * 1e-6,
+                              age < 0 ? "in the future" : "ago",
+                              static_cast<double>(config_.max_age_us) * 1e-6,
+                              static_cast<double>(config_.max_future_us) * 1e-6));
+  auto last = last_sequence_.find(cmd.key_id);
+  if (last != last_sequence_.end() && cmd.sequence <= last->second)
+    return refuse(CommandVerdict::kReplayed, fmt::format("sequence {} not above {} for key '{}'",
+                                                         cmd.sequence, last->second, cmd.key_id));
+  last_sequence_[cmd.key_id] = cmd.sequence;
+  r.verdict = CommandVerdict::kAccepted;
+  r.reason = fmt::format("{} signed by '{}'", to_string(kind), cmd.key_id);
+  return finish(std::move(r));
+}
+
+}  // namespace dualv::runtime

@@ -1,0 +1,105 @@
+#pragma once
+// Authentication of operator commands (dualv_lcm::command_t).
+//
+// Commands that start motion or reset a stop carry
+//   hmac = HMAC-SHA256(key, LCM encoding of the command with hmac zeroed)
+// (libsodium crypto_auth_hmacsha256; verification is constant-time). The
+// verifier refuses a command that is malformed, unsigned, signed with an
+// unknown key or a wrong signature, stale (sender time outside the window)
+// or replayed (sequence not above the last accepted one for its key). An
+// e-stop is accepted in every one of those cases but malformed: stopping
+// must never depend on holding a key, and a replayed stop is harmless.
+//
+// Key files hold 32 bytes, raw or as 64 hex digits; the key id is the file
+// name without extension (/etc/dualv/keys/operator.key -> "operator").
+// Create one with: head -c 32 /dev/urandom > operator.key && chmod 600 operator.key
+#include <array>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "dualv_lcm/command_t.hpp"
+
+namespace dualv::runtime {
+
+inline constexpr std::size_t kKeyBytes = 32;
+
+enum class CommandKind : std::int8_t {
+  kStartProgram = dualv_lcm::command_t::KIND_START_PROGRAM,
+  kStop = dualv_lcm::command_t::KIND_STOP,
+  kEstop = dualv_lcm::command_t::KIND_ESTOP,
+  kReset = dualv_lcm::command_t::KIND_RESET,
+};
+const char* to_string(CommandKind kind) noexcept;
+
+struct CommandKey {
+  std::string id;
+  std::array<unsigned char, kKeyBytes> bytes{};
+};
+
+// Loads a key file. Throws dualv::ConfigError naming the file and the fix when
+// it is missing, unreadable, of the wrong size or all zeros. Appends a warning
+// to `warnings` (when given) if the file is readable or writable by others.
+CommandKey load_command_key(const std::string& path, std::vector<std::string>* warnings = nullptr);
+
+// Loads every *.key file in `dir` (the receiver's key ring, e.g.
+// /etc/dualv/keys). A missing folder is a ConfigError; an empty one yields no
+// keys (then only e-stops are accepted) and a warning.
+std::vector<CommandKey> load_command_keys(const std::string& dir,
+                                          std::vector<std::string>* warnings = nullptr);
+
+// Builds a command (utime and sequence supplied by the caller) and signs it
+// when `key` is given; unsigned commands carry an all-zero hmac.
+dualv_lcm::command_t make_command(CommandKind kind, const std::string& program, std::int64_t utime,
+                                  std::int64_t sequence, const CommandKey* key);
+// Sets key_id and hmac of `cmd` for `key`.
+void sign_command(dualv_lcm::command_t& cmd, const CommandKey& key);
+
+enum class CommandVerdict {
+  kAccepted,
+  kMalformed,     // does not decode, trailing bytes, unknown kind, bad field
+  kUnsigned,      // all-zero hmac on a command that needs a signature
+  kUnknownKey,    // key_id not among the verifier's keys
+  kBadSignature,  // hmac does not match (wrong key, altered message)
+  kStale,         // utime too old or too far in the future
+  kReplayed,      // sequence not above the last accepted for this key
+};
+inline constexpr int kVerdictCount = 7;
+const char* to_string(CommandVerdict v) noexcept;
+
+struct CommandAuthConfig {
+  std::int64_t max_age_us = 2'000'000;     // older than this: stale
+  std::int64_t max_future_us = 1'000'000;  // sender clock ahead by more: stale
+  std::size_t max_program_name = 64;
+};
+
+struct VerifyResult {
+  CommandVerdict verdict = CommandVerdict::kMalformed;
+  dualv_lcm::command_t command;  // decoded (when not malformed)
+  std::string reason;            // one line for the log
+};
+
+class CommandVerifier {
+ public:
+  explicit CommandVerifier(std::vector<CommandKey> keys, CommandAuthConfig config = {});
+
+  // Checks a decoded command against the clock `now_utime` (us since 1970);
+  // an accepted signed command advances its key's sequence.
+  VerifyResult verify(const dualv_lcm::command_t& cmd, std::int64_t now_utime);
+  // Decodes an LCM payload first: anything that does not decode exactly is malformed.
+  VerifyResult verify_encoded(const void* data, std::size_t size, std::int64_t now_utime);
+
+  std::uint64_t count(CommandVerdict v) const noexcept { return counts_[static_cast<int>(v)]; }
+  std::uint64_t refused() const noexcept;
+  std::size_t key_count() const noexcept { return keys_.size(); }
+
+ private:
+  VerifyResult finish(VerifyResult r);
+  std::vector<CommandKey> keys_;
+  CommandAuthConfig config_;
+  std::map<std::string, std::int64_t> last_sequence_;
+  std::array<std::uint64_t, kVerdictCount> counts_{};
+};
+
+}  // namespace dualv::runtime

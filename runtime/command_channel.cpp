@@ -1,0 +1,115 @@
+#include "runtime/command_channel.hpp"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <lcm/lcm-cpp.hpp>
+#include <stdexcept>
+
+#include "runtime/channels.hpp"
+#include "runtime/telemetry.hpp"
+#include "runtime/telemetry_publisher.hpp"
+
+namespace dualv::runtime {
+
+CommandChannel::CommandChannel(const std::string& url, CommandVerifier verifier, WallClock clock)
+    : owned_(std::make_unique<lcm::LCM>(url)),
+      lcm_(owned_.get()),
+      verifier_(std::move(verifier)),
+      clock_(clock ? std::move(clock) : WallClock(wall_utime)) {
+  if (!lcm_->good())
+    throw std::runtime_error(fmt::format(
+        "cannot open LCM URL '{}' for commands: use a live URL such as {}", url, kLiveUrl));
+  subscribe();
+}
+
+CommandChannel::CommandChannel(lcm::LCM& lcm, CommandVerifier verifier, WallClock clock)
+    : lcm_(&lcm),
+      verifier_(std::move(verifier)),
+      clock_(clock ? std::move(clock) : WallClock(wall_utime)) {
+  subscribe();
+}
+
+CommandChannel::~CommandChannel() {
+  stop();
+  // An LCM owned by the caller outlives us: it must not call back into a dead object.
+  if (subscription_ != nullptr) lcm_unsubscribe(lcm_->getUnderlyingLCM(), subscription_);
+}
+
+void CommandChannel::subscribe() {
+  subscription_ =
+      lcm_subscribe(lcm_->getUnderlyingLCM(), kCommandChannel, &CommandChannel::on_message, this);
+  if (subscription_ == nullptr)
+    throw std::runtime_error(fmt::format("cannot subscribe to LCM channel {}", kCommandChannel));
+}
+
+int CommandChannel::poll(int timeout_ms) { return lcm_->handleTimeout(timeout_ms); }
+
+void CommandChannel::start() {
+  if (running_.exchange(true)) return;
+  thread_ = std::thread([this] {
+    while (running_.load(std::memory_order_acquire)) {
+      if (poll(50) < 0) {
+        spdlog::error("command channel: LCM receive failed; commands are no longer received");
+        break;
+      }
+    }
+  });
+}
+
+void CommandChannel::stop() {
+  if (running_.exchange(false) && thread_.joinable()) thread_.join();
+}
+
+void CommandChannel::on_message(const lcm_recv_buf_t* rbuf, const char*, void* user) {
+  auto* self = static_cast<CommandChannel*>(user);
+  // Called from LCM's C code: no exception may cross it.
+  try {
+    self->handle(rbuf->data, rbuf->data_size);
+  } catch (const std::exception& e) {
+    self->refused_.fetch_add(1);
+    spdlog::error("command channel: {} while handling a command; it was not acted on", e.what());
+  }
+}
+
+void CommandChannel::handle(const void* data, std::size_t size) {
+  const VerifyResult r = verifier_.verify_encoded(data, size, clock_());
+  if (r.verdict != CommandVerdict::kAccepted) {
+    refused_.fetch_add(1);
+    spdlog::warn("command refused ({}): {}; kind {}, key '{}', sequence {}", to_string(r.verdict),
+                 r.reason, static_cast<int>(r.command.kind), r.command.key_id, r.command.sequence);
+    return;
+  }
+  accepted_.fetch_add(1);
+  VerifiedCommand v;
+  v.kind = static_cast<CommandKind>(r.command.kind);
+  v.utime = r.command.utime;
+  v.sequence = r.command.sequence;
+  v.is_signed = !r.command.key_id.empty();
+  copy_text(v.program, r.command.program);
+  copy_text(v.key_id, r.command.key_id);
+  if (v.kind == CommandKind::kEstop) estops_.fetch_add(1, std::memory_order_release);
+  spdlog::info("command accepted: {}", r.reason);
+  if (!queue_.try_push(v))
+    spdlog::error("command queue full: {} dropped (the application is not reading commands)",
+                  to_string(v.kind));
+}
+
+dualv_lcm::command_t send_command(lcm::LCM& lcm, CommandKind kind, const std::string& program,
+                                  const CommandKey* key) {
+  const std::int64_t now = wall_utime();
+  // Strictly increasing within this process even for two sends in the same
+  // microsecond; across processes the wall clock keeps it increasing.
+  static std::atomic<std::int64_t> last{0};
+  std::int64_t seq = last.load();
+  while (!last.compare_exchange_weak(seq, std::max(now, seq + 1))) {
+  }
+  seq = std::max(now, seq + 1);
+  dualv_lcm::command_t cmd = make_command(kind, program, now, seq, key);
+  if (lcm.publish(kCommandChannel, &cmd) != 0)
+    throw std::runtime_error(fmt::format("LCM publish of the {} command failed", to_string(kind)));
+  return cmd;
+}
+
+}  // namespace dualv::runtime

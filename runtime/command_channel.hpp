@@ -1,0 +1,93 @@
+#pragma once
+// Receives operator commands on the LCM command channel, verifies them
+// (command_auth.hpp) and hands the accepted ones to the application through a
+// lock-free queue, so the consumer may be the real-time loop itself.
+// Refused commands are counted and logged (spdlog warning), never queued.
+//
+// E-stops are also counted in an atomic the consumer can poll: an e-stop is
+// never lost, even when the queue is full.
+//
+// Threads: poll() (or the thread start() runs) is the producer; try_pop() and
+// estop_requests() belong to the one consumer thread.
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include <lcm/lcm.h>
+
+#include "common/spsc_queue.hpp"
+#include "runtime/command_auth.hpp"
+
+namespace lcm {
+class LCM;
+}  // namespace lcm
+
+namespace dualv::runtime {
+
+// A verified command, fixed-size and trivially copyable for the queue.
+struct VerifiedCommand {
+  CommandKind kind = CommandKind::kStop;
+  std::int64_t utime = 0;
+  std::int64_t sequence = 0;
+  bool is_signed = false;
+  char program[65] = {};
+  char key_id[65] = {};
+};
+
+class CommandChannel {
+ public:
+  static constexpr std::size_t kQueue = 64;
+  using WallClock = std::function<std::int64_t()>;  // us since 1970
+
+  // Opens its own LCM on `url` (throws std::runtime_error when it cannot).
+  CommandChannel(const std::string& url, CommandVerifier verifier, WallClock clock = {});
+  // Uses an LCM instance owned by the caller (tests with memq://).
+  CommandChannel(lcm::LCM& lcm, CommandVerifier verifier, WallClock clock = {});
+  ~CommandChannel();
+  CommandChannel(const CommandChannel&) = delete;
+  CommandChannel& operator=(const CommandChannel&) = delete;
+
+  // Handles whatever arrives within timeout_ms; returns messages handled
+  // (0 on timeout, < 0 on an LCM error). Not while the thread runs.
+  int poll(int timeout_ms);
+  void start();  // a thread calling poll(50) until stop()
+  void stop();
+
+  bool try_pop(VerifiedCommand& out) noexcept { return queue_.try_pop(out); }
+  std::uint64_t estop_requests() const noexcept { return estops_.load(std::memory_order_acquire); }
+  std::uint64_t accepted() const noexcept { return accepted_.load(); }
+  std::uint64_t refused() const noexcept { return refused_.load(); }
+  std::uint64_t dropped() const noexcept { return queue_.dropped(); }
+  // Verdict counts; read them from the thread that polls (or after stop()).
+  const CommandVerifier& verifier() const noexcept { return verifier_; }
+
+ private:
+  void subscribe();
+  // Subscribed through LCM's C API: the C++ wrapper's member-function
+  // subscription miscompiles under GCC 12's -fsanitize=vptr (the callback
+  // receives a wrong user_data), which would break sanitizer CI runs.
+  static void on_message(const lcm_recv_buf_t* rbuf, const char* channel, void* self);
+  void handle(const void* data, std::size_t size);
+
+  std::unique_ptr<lcm::LCM> owned_;
+  lcm::LCM* lcm_;
+  lcm_subscription_t* subscription_ = nullptr;
+  CommandVerifier verifier_;
+  WallClock clock_;
+  SpscQueue<VerifiedCommand, kQueue> queue_;
+  std::atomic<std::uint64_t> estops_{0}, accepted_{0}, refused_{0};
+  std::atomic<bool> running_{false};
+  std::thread thread_;
+};
+
+// Sends one command (signed when `key` is given) on the command channel;
+// sequence and utime come from the wall clock in microseconds, which keeps
+// them increasing across separate CLI invocations. Returns the command sent.
+// Throws std::runtime_error when LCM cannot publish.
+dualv_lcm::command_t send_command(lcm::LCM& lcm, CommandKind kind, const std::string& program,
+                                  const CommandKey* key);
+
+}  // namespace dualv::runtime
