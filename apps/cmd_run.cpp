@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,10 @@
 #include "apps/experiment/closed_loop.hpp"
 #include "apps/experiment/report.hpp"
 #include "apps/experiment/robot_config.hpp"
+#include "common/yaml_reader.hpp"
+#include "control/loop/cycle_stats.hpp"
+#include "drivers/canopen_setup.hpp"
+#include "runtime/telemetry_publisher.hpp"
 #include "control/trajectory/preflight.hpp"
 #include "control/trajectory/program.hpp"
 
@@ -30,6 +35,10 @@ struct RunArgs {
   double rate_hz = 0.0;
   std::vector<std::string> variants;
   bool plots = true;
+  bool realtime = false;
+  std::string can;
+  bool move_hardware = false;
+  std::string lcm;
 };
 
 std::string default_out_dir() {
@@ -70,13 +79,44 @@ int run(const RunArgs& args) {
     trajectory::preflight_or_throw(cfg.model, trajectory::with_timing(program, v.timing),
                                    cfg.trajectory.limits);
 
+  // Real drives move a 127 N m machine: a virtual bus is fine, anything else needs consent.
+  if (!args.can.empty() && args.can.rfind("vcan", 0) != 0 && !args.move_hardware) {
+    fmt::print(stderr,
+               "dualv run: --can {} is not a virtual CAN interface: this will move the robot.\n"
+               "Check the workspace is clear and the hardwired e-stop is in reach, then add "
+               "--yes-move-hardware.\n",
+               args.can);
+    return 2;
+  }
+  std::unique_ptr<drivers::CanopenDrives> drives;
+  if (!args.can.empty()) {
+    if (args.variants.empty()) {  // on drives, the proposed method only unless asked
+      variants.clear();
+      variants.push_back(paper_variants().front());
+    }
+    const drivers::CanConfig can = drivers::load_can_config(YamlReader::load_file(cfg.path)["can"]);
+    drivers::CanopenSetupOptions opts;
+    opts.interface = args.can;
+    opts.control_period_s = cfg.period();
+    opts.log = [](const std::string& line) { fmt::print("  {}\n", line); };
+    fmt::print("dualv run: booting the drives on {}\n", args.can);
+    drives = drivers::open_canopen_drives(can, opts);
+  }
+
   const std::string out = args.out.empty() ? default_out_dir() : args.out;
   std::filesystem::create_directories(out);
-  fmt::print("dualv run: {} ({} segments, {:.2f} s) on the in-process simulated Dual-V at {:.0f} Hz\n",
-             program_file, program.size(), program.duration(), cfg.rate_hz());
+  fmt::print("dualv run: {} ({} segments, {:.2f} s) on {} at {:.0f} Hz{}\n", program_file,
+             program.size(), program.duration(),
+             drives ? "the CANopen drives on " + args.can : std::string("the in-process simulated Dual-V"),
+             cfg.rate_hz(), args.realtime || drives ? ", paced in real time" : ", simulated time");
+  // Telemetry: an LCM log in the output folder (LCM's file provider: no network), or live.
+  const std::string log_file = out + "/telemetry.lcmlog";
+  runtime::TelemetryPublisher telemetry(args.lcm.empty() ? runtime::log_url(log_file) : args.lcm);
+  telemetry.start();
   std::vector<RunResult> runs;
   for (const auto& v : variants) {
     RunOptions opts;
+    opts.telemetry = &telemetry;
     // A terminal gets one line rewritten in place; a log gets a line per second of robot time.
     const bool tty = isatty(fileno(stdout));
     opts.progress = [tty](const std::string& name, double t, double duration) {
@@ -87,18 +127,27 @@ int run(const RunArgs& args) {
         fmt::print("  {:<24} t = {:5.2f} / {:.2f} s\n", name, t, duration);
       }
     };
-    runs.push_back(run_in_process(cfg, program, v, opts));
+    opts.realtime = args.realtime;
+    runs.push_back(drives ? run_program(cfg, program, v, drives->actuators(), opts)
+                          : run_in_process(cfg, program, v, opts));
     const RunResult& r = runs.back();
     fmt::print("{}  {:<24} {} in {:.2f} s wall ({:.0f}x real time){}\n", tty ? "\r" : "", v.name, r.ok ? "done" : "FAILED", r.wall_time, r.robot_time / std::max(r.wall_time, 1e-9),
                r.ok ? "" : ": " + r.failure);
   }
+  telemetry.stop();
+  const runtime::TelemetryCounters tc = telemetry.counters();
   fmt::print("\n{}", summary_table(runs));
+  if (args.realtime || drives) fmt::print("\n{}", control::format_loop_stats(runs.back().loop));
   write_csv(out, runs);
   if (args.plots) {
     const std::string why = draw_plots(out);
     if (!why.empty()) fmt::print(stderr, "dualv run: no plots: {}\n", why);
   }
-  fmt::print("\nresults in {}/ (CSV time series, summary.csv{})\n", out, args.plots ? ", PNG figures" : "");
+  fmt::print("\ntelemetry: {} robot states{} {}\n", tc.states,
+             tc.states_dropped ? fmt::format(" ({} dropped: the publisher fell behind)", tc.states_dropped) : "",
+             args.lcm.empty() ? "in " + log_file + " (lcm-logplayer, dualv status --lcm file://...)"
+                              : "published on " + args.lcm);
+  fmt::print("results in {}/ (CSV time series, summary.csv{})\n", out, args.plots ? ", PNG figures" : "");
   for (const auto& r : runs)
     if (!r.ok) return 1;
   return 0;
@@ -119,6 +168,15 @@ void register_run_command(CLI::App& app) {
                   "Run only these variants: retimed, original, retimed-no-projection, "
                   "retimed-no-feedforward (default: all)");
   cmd->add_flag("!--no-plots", args.plots, "Skip the PNG figures");
+  cmd->add_flag("--realtime", args.realtime,
+                "Pace the in-process simulation by the clock at the control rate and report jitter");
+  cmd->add_option("--can", args.can,
+                  "Control CANopen drives (or `dualv sim --can IFACE`) on this SocketCAN interface");
+  cmd->add_option("--lcm", args.lcm,
+                  "Publish telemetry live on this LCM URL (e.g. udpm://239.255.76.67:7667?ttl=0) "
+                  "instead of writing <out>/telemetry.lcmlog");
+  cmd->add_flag("--yes-move-hardware", args.move_hardware,
+                "Confirm that --can on a real (non-vcan) interface may move the robot");
   cmd->callback([] { exit_code() = run(args); });
 }
 

@@ -11,10 +11,13 @@ int& exit_code() noexcept;
 
 void register_model_command(CLI::App& app);
 void register_run_command(CLI::App& app);
+void register_bus_load_command(CLI::App& app);
 void register_status_command(CLI::App& app);
 void register_estop_command(CLI::App& app);
 void register_reset_command(CLI::App& app);
 void register_start_command(CLI::App& app);
 void register_check_target_command(CLI::App& app);
+void register_sim_command(CLI::App& app);
+void register_selftest_command(CLI::App& app);
 
 }  // namespace dualv::apps

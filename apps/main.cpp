@@ -20,11 +20,14 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "dualv 0.1.0");
   dualv::apps::register_model_command(app);
   dualv::apps::register_run_command(app);
+  dualv::apps::register_bus_load_command(app);
   dualv::apps::register_status_command(app);
   dualv::apps::register_estop_command(app);
   dualv::apps::register_reset_command(app);
   dualv::apps::register_start_command(app);
   dualv::apps::register_check_target_command(app);
+  dualv::apps::register_sim_command(app);
+  dualv::apps::register_selftest_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "control/loop/control_cycle.hpp"
+#include "control/loop/periodic_executive.hpp"
 #include "sim/plant.hpp"
 #include "sim/sim_actuator_set.hpp"
 
@@ -52,6 +53,33 @@ void accumulate(SegmentMetrics& m, const Row& row, const Row* prev, int n, doubl
   ++m.cycles;
 }
 
+// One cycle as a telemetry sample (noexcept, no allocation: a copy into fixed arrays).
+runtime::StateSample state_sample(const control::CycleRecord& rec, int n, bool simulated) noexcept {
+  runtime::StateSample s;
+  s.utime = runtime::wall_utime();
+  s.cycle = rec.cycle;
+  s.t = rec.t;
+  s.n = static_cast<std::int16_t>(n);
+  for (int i = 0; i < n && i < runtime::kMaxJoints; ++i) {
+    s.q[i] = rec.est.q[i];
+    s.q_dot[i] = rec.est.q_dot[i];
+    s.tau_cmd[i] = rec.command.torque[i];
+    s.tau_internal[i] = rec.control.tau_internal.size() > i ? rec.control.tau_internal[i] : 0.0;
+  }
+  for (int k = 0; k < 3; ++k) {
+    s.X[k] = rec.est.X[k];
+    s.X_d[k] = rec.ref.cartesian.X[k];
+    s.tracking_error[k] = rec.ref.cartesian.X[k] - rec.est.X[k];
+  }
+  s.lambda = rec.ref.phase.lambda;
+  s.segment = static_cast<std::int32_t>(rec.ref.segment);
+  const bool running = rec.phase == control::CyclePhase::kRunning;
+  s.safety_state = rec.status == control::CycleStatus::kOk ? (running ? 1 : 0) : 5;
+  runtime::copy_text(s.safety_text, control::to_string(rec.phase));
+  s.status_flags = (simulated ? 1 : 0) | (running ? 16 : 0);
+  return s;
+}
+
 }  // namespace
 
 void compute_metrics(const trajectory::Program& program, RunResult& r) {
@@ -89,16 +117,14 @@ void compute_metrics(const trajectory::Program& program, RunResult& r) {
   }
 }
 
-RunResult run_in_process(const RobotConfig& config, const trajectory::Program& program,
-                         const Variant& variant, const RunOptions& options) {
+RunResult run_program(const RobotConfig& config, const trajectory::Program& program,
+                      const Variant& variant, drivers::ActuatorSet& io, const RunOptions& options,
+                      const std::function<double()>& after_cycle) {
   const auto wall_start = std::chrono::steady_clock::now();
   RunResult result;
   result.variant = variant;
   result.n = config.model.n;
 
-  sim::Plant plant(config.model, config.plant);
-  plant.reset(config.model.home);
-  sim::SimActuatorSet io(plant);
   control::ControlSetup setup = config.control;
   setup.controller.projection = variant.projection;
   setup.controller.feedforward = variant.feedforward;
@@ -106,26 +132,32 @@ RunResult run_in_process(const RobotConfig& config, const trajectory::Program& p
   control::ControlCycle cycle(config.model, setup, {period, 2.0});
   cycle.start(io, trajectory::with_timing(program, variant.timing), config.trajectory.rebase);
   const trajectory::Program& run_program = cycle.sequencer()->program();
-
   const double duration = cycle.program_duration();
-  const auto total_cycles = static_cast<std::int64_t>(std::ceil((duration + options.settle_time) / period));
-  result.rows.reserve(static_cast<std::size_t>(total_cycles));
+  const auto total_cycles =
+      static_cast<std::int64_t>(std::ceil((duration + options.settle_time) / period));
+  result.rows.reserve(static_cast<std::size_t>(total_cycles));  // no allocation in the loop
+
+  // Simulated time: the schedule jumps, the cycle work is still timed on the real clock.
+  control::SimClock sim_clock;
+  control::MonotonicClock mono;
+  control::ExecutiveConfig exec = config.loop;
+  exec.realtime = options.realtime;
+  control::PeriodicExecutive executive(exec, options.realtime ? static_cast<control::LoopClock&>(mono)
+                                                              : static_cast<control::LoopClock&>(sim_clock),
+                                       &mono);
   control::CycleRecord rec;
-  const std::int64_t progress_every = std::max<std::int64_t>(1, static_cast<std::int64_t>(0.5 / period));
-  for (std::int64_t k = 0; k < total_cycles; ++k) {
+  const bool simulated = static_cast<bool>(after_cycle);
+  const std::int64_t progress_every = std::max<std::int64_t>(1, std::llround(0.5 / period));
+  bool failed = false;
+  auto fn = [&](const control::CycleInfo& info) noexcept -> control::CycleResult {
+    cycle.note_timing(info.lateness_ns > exec.period_ns, info.consecutive_misses);
     const control::CycleStatus s = cycle.step(io, rec);
-    if (s != control::CycleStatus::kOk) {
-      result.ok = false;
-      result.failure = fmt::format("cycle {} (t = {:.3f} s): {}", rec.cycle, rec.t, control::to_string(s));
-      break;
+    const double internal = after_cycle ? after_cycle() : std::nan("");
+    if (s != control::CycleStatus::kOk || (after_cycle && std::isnan(internal))) {
+      failed = true;
+      return control::CycleResult::kStop;
     }
-    if (plant.advance(period) != sim::PlantStatus::kOk) {
-      result.ok = false;
-      result.failure = fmt::format("cycle {}: simulated plant: {} ({})", rec.cycle,
-                                   sim::to_string(plant.status()), model::to_string(plant.output().fault));
-      break;
-    }
-    if (rec.phase == control::CyclePhase::kEnabling) continue;
+    if (rec.phase == control::CyclePhase::kEnabling) return control::CycleResult::kContinue;
     Row row;
     row.t = rec.t;
     row.segment = static_cast<int>(rec.ref.segment);
@@ -133,18 +165,65 @@ RunResult run_in_process(const RobotConfig& config, const trajectory::Program& p
     row.X = rec.est.X;
     for (int i = 0; i < result.n; ++i) row.tau[i] = rec.command.torque[i];
     row.tau_internal = rec.control.tau_internal.norm();
-    row.plant_internal = plant.output().internal_norm;
+    row.plant_internal = internal;
     row.lambda = rec.ref.phase.lambda;
     row.lambda_dot = rec.ref.phase.lambda_dot;
     row.lambda_dd = rec.ref.phase.lambda_dd;
-    result.rows.push_back(row);
-    if (options.progress && k % progress_every == 0) options.progress(variant.name, rec.t, duration);
+    if (result.rows.size() < result.rows.capacity()) result.rows.push_back(row);
+    if (options.telemetry) options.telemetry->push_state(state_sample(rec, result.n, simulated));
+    return result.rows.size() < result.rows.capacity() ? control::CycleResult::kContinue
+                                                       : control::CycleResult::kStop;
+  };
+  auto with_progress = [&](const control::CycleInfo& info) noexcept -> control::CycleResult {
+    const control::CycleResult r = fn(info);
+    // Progress is set-up code's business: called between cycles, it may print.
+    if (options.progress && info.cycle % progress_every == 0) {
+      try {
+        options.progress(variant.name, rec.t, duration);
+      } catch (...) {
+      }
+    }
+    return r;
+  };
+  // A failing enable phase must end too: bound the run to enabling time + program + settle.
+  const control::RunReport report =
+      executive.run(with_progress, total_cycles + std::llround(2.0 / period) + 1);
+  result.loop = report.stats;
+  if (options.telemetry) {
+    runtime::LoopStatsSample ls;
+    ls.stats = report.stats;
+    ls.realtime = options.realtime;
+    ls.telemetry_dropped = static_cast<std::int64_t>(options.telemetry->dropped());
+    options.telemetry->push_loop_stats(ls);
+  }
+  if (failed) {
+    result.ok = false;
+    result.failure = fmt::format("cycle {} (t = {:.3f} s): {}", rec.cycle, rec.t,
+                                 control::to_string(rec.status));
   }
   result.robot_time = static_cast<double>(result.rows.size()) * period;
   compute_metrics(run_program, result);
   result.wall_time =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;
+}
+
+RunResult run_in_process(const RobotConfig& config, const trajectory::Program& program,
+                         const Variant& variant, const RunOptions& options) {
+  sim::Plant plant(config.model, config.plant);
+  plant.reset(config.model.home);
+  sim::SimActuatorSet io(plant);
+  const double period = config.period();
+  RunResult r = run_program(config, program, variant, io, options, [&]() noexcept {
+    return plant.advance(period) == sim::PlantStatus::kOk ? plant.output().internal_norm
+                                                          : std::nan("");
+  });
+  if (plant.status() != sim::PlantStatus::kOk) {
+    r.ok = false;
+    r.failure = fmt::format("simulated plant: {} ({})", sim::to_string(plant.status()),
+                            model::to_string(plant.output().fault));
+  }
+  return r;
 }
 
 }  // namespace dualv::apps

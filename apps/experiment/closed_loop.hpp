@@ -8,8 +8,10 @@
 #include <vector>
 
 #include "apps/experiment/robot_config.hpp"
+#include "control/loop/cycle_stats.hpp"
 #include "control/trajectory/program.hpp"
 #include "drivers/actuator_set.hpp"
+#include "runtime/telemetry_publisher.hpp"
 
 namespace dualv::apps {
 
@@ -49,6 +51,7 @@ struct SegmentMetrics {
 };
 
 struct RunResult {
+  control::LoopStatsSummary loop;        // cycle time and lateness of the loop
   Variant variant;
   int n = 0;
   std::vector<Row> rows;
@@ -62,6 +65,12 @@ struct RunResult {
 
 struct RunOptions {
   double settle_time = 0.2;  // [s] held at the final pose after the program
+  // false: simulated time, as fast as the CPU allows (deterministic); true: paced by the
+  // monotonic clock at the configured rate (SCHED_FIFO etc. when permitted), as on a target.
+  bool realtime = false;
+  // Telemetry (robot state every cycle, loop statistics at the end) goes to this publisher's
+  // queue when set: an LCM log by default (`dualv run`), or live with --lcm URL.
+  runtime::TelemetryPublisher* telemetry = nullptr;
   std::function<void(const std::string& variant, double t, double duration)> progress;
 };
 
@@ -69,6 +78,14 @@ struct RunOptions {
 // law and controller switches against the in-process simulation of config.plant.
 RunResult run_in_process(const RobotConfig& config, const trajectory::Program& program,
                          const Variant& variant, const RunOptions& options = {});
+
+// The same program against any drives (e.g. CANopen drives on a SocketCAN interface),
+// always paced by the monotonic clock. `after_cycle`, when given, runs after every write
+// (the in-process plant advances there) and returns the internal torque it observes (NaN
+// when unknown).
+RunResult run_program(const RobotConfig& config, const trajectory::Program& program,
+                      const Variant& variant, drivers::ActuatorSet& io, const RunOptions& options,
+                      const std::function<double()>& after_cycle = {});
 
 // Metrics from rows (used for any backend: in-process, CAN).
 void compute_metrics(const trajectory::Program& program, RunResult& result);

@@ -36,6 +36,32 @@ RobotConfig load_robot_config(const std::string& path) {
     cfg.loop = control::read_executive_config(loop);
     p.finish();
   });
+  section([&] { cfg.safety = safety::load_safety_config(root["safety"]); });
+  if (problems.empty()) {
+    // Programs that pass pre-flight must not trip the safety layer: its limits must be at
+    // least as wide as the trajectory's.
+    const auto& lim = cfg.trajectory.limits;
+    const auto& s = cfg.safety;
+    auto outside = [](const safety::Range& r, const trajectory::Interval& i) {
+      return i.lo < r.lo || i.hi > r.hi;
+    };
+    const std::pair<const char*, bool> checks[] = {
+        {"safety.workspace.x: must contain trajectory.limits.workspace.x", outside(s.workspace.x, lim.workspace.x)},
+        {"safety.workspace.y: must contain trajectory.limits.workspace.y", outside(s.workspace.y, lim.workspace.y)},
+        {"safety.workspace.theta: must contain trajectory.limits.workspace.theta",
+         outside(s.workspace.theta, lim.workspace.theta)},
+        {"safety.torque.max: must be >= trajectory.limits.max_joint_torque",
+         s.torque.max < lim.max_joint_torque},
+        {"safety.max_joint_velocity: must be >= trajectory.limits.max_joint_speed",
+         s.max_joint_velocity < lim.max_joint_speed},
+        {"safety.min_parallel_singularity: must be <= trajectory.limits.min_parallel_singularity",
+         s.min_parallel_singularity > lim.min_parallel_singularity},
+        {"safety.min_serial_singularity: must be <= trajectory.limits.min_serial_singularity",
+         s.min_serial_singularity > lim.min_serial_singularity},
+    };
+    for (const auto& [what, bad] : checks)
+      if (bad) problems.push_back(fmt::format("{}: {}", path, what));
+  }
   const char* known[] = {"model", "controller", "trajectory", "plant", "loop", "safety", "can",
                          "lcm", "drives"};
   for (const auto& kv : root) {

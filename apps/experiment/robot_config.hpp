@@ -8,6 +8,7 @@
 #include "control/loop/periodic_executive.hpp"
 #include "control/model/model.hpp"
 #include "control/trajectory/limits.hpp"
+#include "safety/safety_config.hpp"
 #include "sim/plant.hpp"
 
 namespace dualv::apps {
@@ -19,6 +20,7 @@ struct RobotConfig {
   trajectory::TrajectoryConfig trajectory;
   sim::PlantConfig plant;
   control::ExecutiveConfig loop;
+  safety::SafetyConfig safety;  // `safety:` (optional section: defaults when absent)
   double rate_hz() const noexcept { return 1e9 / static_cast<double>(loop.period_ns); }
   double period() const noexcept { return static_cast<double>(loop.period_ns) * 1e-9; }
 };

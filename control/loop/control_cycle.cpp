@@ -13,6 +13,7 @@ const char* to_string(CyclePhase p) noexcept {
     case CyclePhase::kEnabling: return "enabling";
     case CyclePhase::kRunning: return "running";
     case CyclePhase::kHolding: return "holding";
+    case CyclePhase::kStopped: return "stopped";
   }
   return "unknown";
 }
@@ -24,6 +25,7 @@ const char* to_string(CycleStatus s) noexcept {
     case CycleStatus::kEstimateFailed: return "estimate failed";
     case CycleStatus::kControlFailed: return "control failed";
     case CycleStatus::kEnableTimeout: return "enable timeout";
+    case CycleStatus::kSafetyStop: return "safety stop";
   }
   return "unknown";
 }
@@ -34,7 +36,9 @@ ControlCycle::ControlCycle(const model::Model& model, const ControlSetup& setup,
       config_(config),
       estimator_(model, setup.estimator, config.period),
       controller_(model, setup.controller),
-      q_meas_(model::JointVector::Zero(model.n)) {}
+      q_meas_(model::JointVector::Zero(model.n)),
+      safety_(model, config.safety, config.period),
+      guard_(safety_) {}
 
 double ControlCycle::program_duration() const noexcept {
   return sequencer_ ? sequencer_->duration() : 0.0;
@@ -59,8 +63,15 @@ void ControlCycle::start(drivers::ActuatorSet& io, const trajectory::Program& pr
         "cannot find the plate pose from the joint angles (forward kinematics: {}, residual {:.3g} "
         "rad): check the encoder offsets and that the robot is near its home pose",
         model::to_string(fk.status), fk.residual));
+  // Arm the safety filter last: nothing above may leave it armed on a failed start.
+  std::optional<trajectory::Sequencer> sequencer;
+  sequencer.emplace(*model_, trajectory::rebase(program, X, rebase));
+  const safety::ArmStatus armed =
+      safety_.arm(fb, static_cast<std::int64_t>(static_cast<double>(cycle_) * config_.period * 1e9));
+  if (armed != safety::ArmStatus::kOk)
+    throw std::runtime_error(fmt::format("cannot start: safety: {}", safety::to_string(armed)));
   estimator_.reset(q, X);
-  sequencer_.emplace(*model_, trajectory::rebase(program, X, rebase));
+  sequencer_ = std::move(sequencer);
   phase_ = CyclePhase::kEnabling;
   cycle_ = 0;
   enabling_cycles_ = 0;
@@ -84,7 +95,7 @@ CycleStatus ControlCycle::step(drivers::ActuatorSet& io, CycleRecord& rec) noexc
 
   if (!sequencer_) {
     rec.status = CycleStatus::kControlFailed;
-    io.write(rec.command);
+    finish(io, rec, io_status);
     return rec.status;
   }
 
@@ -109,7 +120,7 @@ CycleStatus ControlCycle::step(drivers::ActuatorSet& io, CycleRecord& rec) noexc
   if (phase_ == CyclePhase::kRunning && ss == trajectory::SampleStatus::kFinished)
     phase_ = CyclePhase::kHolding;
 
-  if (phase_ != CyclePhase::kEnabling) {
+  if (phase_ == CyclePhase::kRunning || phase_ == CyclePhase::kHolding) {
     const ControlStatus cs = controller_.update(rec.ref, rec.est, rec.control);
     if (rec.status == CycleStatus::kOk && cs != ControlStatus::kOk)
       rec.status = CycleStatus::kControlFailed;
@@ -117,7 +128,36 @@ CycleStatus ControlCycle::step(drivers::ActuatorSet& io, CycleRecord& rec) noexc
       for (int i = 0; i < n; ++i) rec.command.torque[i] = rec.control.tau[i];
     t_ += config_.period;
   }
-  io.write(rec.command);
+  finish(io, rec, io_status);
+  return rec.status;
+}
+
+// The safety filter decides what is written (SafetyFilter::update), the guard writes it.
+CycleStatus ControlCycle::finish(drivers::ActuatorSet& io, CycleRecord& rec,
+                                 drivers::IoStatus io_status) noexcept {
+  if (hook_) hook_(hook_context_, rec.cycle, rec.command);
+  safety::SafetyInput in;
+  in.cycle = rec.cycle;
+  in.time_ns = static_cast<std::int64_t>(static_cast<double>(rec.cycle) * config_.period * 1e9);
+  in.io_status = io_status;
+  in.command = rec.command;
+  in.pose_valid = rec.est.status == EstimateStatus::kOk;
+  in.X = rec.est.X;
+  in.tracking = sequencer_ && (phase_ == CyclePhase::kRunning || phase_ == CyclePhase::kHolding);
+  in.X_d = rec.ref.cartesian.X;
+  in.deadline_missed = deadline_missed_;
+  in.consecutive_deadline_misses = consecutive_misses_;
+  in.streaming = streaming_;
+  in.stream_fresh = stream_fresh_;
+  stream_fresh_ = false;
+  const safety::SafetyState st = safety_.update(rec.feedback, in, rec.command);
+  if (st != safety::SafetyState::kOperational) {
+    if (sequencer_) phase_ = CyclePhase::kStopped;
+    rec.phase = phase_;
+    if (rec.status == CycleStatus::kOk) rec.status = CycleStatus::kSafetyStop;
+  }
+  rec.safety = safety_.report();
+  guard_.write(io, rec.command);
   return rec.status;
 }
 

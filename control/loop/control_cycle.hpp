@@ -1,6 +1,11 @@
 #pragma once
 // One real-time control cycle, in the order DESIGN.md fixes:
-//   drives -> read -> estimate -> reference -> control law -> (safety) -> write -> drives.
+//   drives -> read -> estimate -> reference -> control law -> safety -> write -> drives.
+//
+// Safety (safety/safety_filter.hpp) owns the final torque and DriveRequest: every command
+// passes SafetyFilter::update() and is written through its WriteGuard. When the filter stops
+// (SS1 or STO) the program is abandoned (kStopped); after a reset the loop holds 0 N m with
+// the drives disabled until start() is called again (a reset never restarts motion).
 //
 // Phases: kEnabling (zero torque, drives asked to enable; program clock stopped) ->
 // kRunning (program time advances one period per cycle) -> kHolding (program finished:
@@ -17,10 +22,13 @@
 #include "control/trajectory/program.hpp"
 #include "control/trajectory/sequencer.hpp"
 #include "drivers/actuator_set.hpp"
+#include "safety/safety_filter.hpp"
 
 namespace dualv::control {
 
-enum class CyclePhase : std::uint8_t { kEnabling = 0, kRunning, kHolding };
+// kStopped: the safety filter stopped the program (SS1/STO, then disabled after a reset);
+// only start() leaves it.
+enum class CyclePhase : std::uint8_t { kEnabling = 0, kRunning, kHolding, kStopped };
 const char* to_string(CyclePhase p) noexcept;
 
 enum class CycleStatus : std::uint8_t {
@@ -29,6 +37,7 @@ enum class CycleStatus : std::uint8_t {
   kEstimateFailed,  // forward kinematics failed: zero torque sent
   kControlFailed,   // reference or control law failed: zero torque sent
   kEnableTimeout,   // the drives did not reach Operation Enabled in time
+  kSafetyStop,      // the safety filter is stopping or has stopped (record.safety says why)
 };
 const char* to_string(CycleStatus s) noexcept;
 
@@ -41,13 +50,15 @@ struct CycleRecord {
   trajectory::Reference ref;  // X_d, q_d, lambda, segment ...
   StateEstimate est;          // q, q_dot, X, X_dot
   ControlOutput control;      // tau*, tau_pd, tau_ff, errors, internal part
-  drivers::ActuatorCommand command;  // what was written to the drives
+  drivers::ActuatorCommand command;  // what was written to the drives (after safety)
   drivers::ActuatorFeedback feedback;
+  safety::SafetyReport safety;       // state, latched and new faults of this cycle
 };
 
 struct CycleConfig {
   double period = 1e-3;          // [s]
   double enable_timeout = 2.0;   // [s] to reach Operation Enabled on every drive
+  safety::SafetyConfig safety{};  // the `safety:` section (defaults = config/dualv.yaml)
 };
 
 class ControlCycle {
@@ -55,8 +66,9 @@ class ControlCycle {
   ControlCycle(const model::Model& model, const ControlSetup& setup, const CycleConfig& config);
 
   // Set-up: reads the drives once, finds the plate pose by forward kinematics from home,
-  // rebases `program` onto it and prepares the sequencer. Throws std::runtime_error with a
-  // message when the drives cannot be read or the pose cannot be found.
+  // rebases `program` onto it, prepares the sequencer and arms the safety filter. Throws
+  // std::runtime_error with a message when the drives cannot be read, the pose cannot be
+  // found, or a safety stop is still latched (reset it first).
   void start(drivers::ActuatorSet& io, const trajectory::Program& program,
              const trajectory::RebaseOptions& rebase);
 
@@ -70,7 +82,36 @@ class ControlCycle {
   }
   Controller& controller() noexcept { return controller_; }
 
+  // The safety filter: stop/reset requests from any thread (safety().request_stop(...)),
+  // its fault log (drained by a non-RT thread), its report.
+  safety::SafetyFilter& safety() noexcept { return safety_; }
+  const safety::WriteGuard& write_guard() const noexcept { return guard_; }
+
+  // Inputs for the next step()'s watchdogs (RT thread): the periodic executive's deadline
+  // statistics (CycleInfo) and, in a streaming command mode, whether a command arrived.
+  void note_timing(bool deadline_missed, int consecutive_misses) noexcept {
+    deadline_missed_ = deadline_missed;
+    consecutive_misses_ = consecutive_misses;
+  }
+  void note_command_stream(bool streaming, bool fresh) noexcept {
+    streaming_ = streaming;
+    stream_fresh_ = fresh;
+  }
+
+  // Fault injection for tests and `dualv selftest` only: called with the control law's
+  // command (before the safety filter) so a test can make the controller misbehave
+  // (10x torque, NaN). nullptr = none. Never set in a production run.
+  using CommandHook = void (*)(void* context, std::int64_t cycle,
+                               drivers::ActuatorCommand& command) noexcept;
+  void set_command_hook(CommandHook hook, void* context) noexcept {
+    hook_ = hook;
+    hook_context_ = context;
+  }
+
  private:
+  CycleStatus finish(drivers::ActuatorSet& io, CycleRecord& rec,
+                     drivers::IoStatus io_status) noexcept;
+
   const model::Model* model_;
   CycleConfig config_;
   StateEstimator estimator_;
@@ -81,6 +122,14 @@ class ControlCycle {
   std::int64_t enabling_cycles_ = 0;
   double t_ = 0.0;
   model::JointVector q_meas_;
+  safety::SafetyFilter safety_;
+  safety::WriteGuard guard_;
+  bool deadline_missed_ = false;
+  int consecutive_misses_ = 0;
+  bool streaming_ = false;
+  bool stream_fresh_ = false;
+  CommandHook hook_ = nullptr;
+  void* hook_context_ = nullptr;
 };
 
 }  // namespace dualv::control

@@ -1,0 +1,204 @@
+// `dualv sim --can IFACE`: the drive emulator (sim/drive_emulator.hpp) and the simulated
+// plant as their own process on a SocketCAN interface: four CiA 402 drives that a master
+// (`dualv run --can IFACE`, or candump/cansend by hand) boots and drives over the bus.
+//
+// Non-real-time loop: wait_readable (at most 0.5 ms) -> poll(CLOCK_MONOTONIC), so timers
+// (heartbeats, consumer timeouts, RPDO deadlines) have about 0.5 ms resolution; the plant
+// advances by the nominal SYNC period on each SYNC, so the physics do not depend on the
+// loop's jitter. Exits cleanly (status 0) on SIGINT/SIGTERM, --exit-after or
+// --exit-when-idle. Test hooks: --estop-after presses the e-stop input of every drive,
+// --fault-after raises a drive fault with an EMCY code.
+#include <fmt/core.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <csignal>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+
+#include "apps/commands.hpp"
+#include "apps/config_path.hpp"
+#include "control/model/model_config.hpp"
+#include "drivers/can/socketcan_bus.hpp"
+#include "drivers/canopen_config.hpp"
+#include "sim/drive_emulator.hpp"
+#include "sim/plant.hpp"
+
+namespace dualv::apps {
+
+namespace {
+
+volatile std::sig_atomic_t g_stop = 0;
+void on_stop_signal(int) { g_stop = 1; }
+
+struct SimArgs {
+  std::string config;
+  std::string interface;
+  double estop_after = -1.0;
+  double estop_release_after = -1.0;
+  double fault_after = -1.0;
+  int fault_drive = 0;
+  std::string fault_code = "0x2310";
+  double exit_after = -1.0;
+  double exit_when_idle = -1.0;
+  double status_every = 1.0;
+  int rpdo_watchdog = -1;
+  bool segmented_upload = false;
+};
+
+void install_signal_handlers() {
+  struct sigaction sa {};
+  sa.sa_handler = on_stop_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = 0;  // no SA_RESTART: poll() in wait_readable returns at once
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+}
+
+std::string status_line(const sim::DriveEmulator& emu, double t) {
+  std::string s =
+      fmt::format("sim t={:.2f}s sync={} plant={:.3f}s", t, emu.syncs(), emu.plant().output().time);
+  for (int i = 0; i < emu.size(); ++i) {
+    const sim::EmulatedDriveStatus d = emu.status(i);
+    s += fmt::format(" | {}:{}/{} sw={:04X} {:+.2f}Nm", d.node_id, to_string(d.nmt),
+                     fw::to_string(d.state), d.statusword, d.torque_nm);
+    if (d.error_code != 0) s += fmt::format(" err={:04X}", d.error_code);
+    if (d.heartbeat_lost) s += " hb-lost";
+  }
+  s += emu.estop_pressed() ? " | ESTOP pressed" : "";
+  return s;
+}
+
+int run_sim(const SimArgs& a) {
+  const std::string file = resolve_config(a.config);
+  const model::Model model = model::load_model_file(file);
+  drivers::CanConfig can = drivers::load_can_config_file(file);
+  if (!a.interface.empty()) can.interface = a.interface;
+  sim::DriveEmulatorConfig emu_cfg = sim::emulator_config_from(can);
+  if (a.rpdo_watchdog >= 0)
+    emu_cfg.rpdo_watchdog_cycles = static_cast<std::uint32_t>(a.rpdo_watchdog);
+  emu_cfg.segmented_upload = a.segmented_upload;
+  unsigned long fault_code = 0;
+  try {
+    fault_code = std::stoul(a.fault_code, nullptr, 0);
+  } catch (const std::exception&) {
+    fault_code = 0x10000;
+  }
+  if (fault_code > 0xFFFF) {
+    fmt::print(stderr, "dualv sim: --fault-code {}: not a 16-bit EMCY code (e.g. 0x2310)\n",
+               a.fault_code);
+    return 2;
+  }
+  if (a.fault_drive < 0 || a.fault_drive >= static_cast<int>(emu_cfg.drives.size())) {
+    fmt::print(stderr, "dualv sim: --fault-drive {}: drives are 0..{}\n", a.fault_drive,
+               emu_cfg.drives.size() - 1);
+    return 2;
+  }
+  sim::Plant plant(model, sim::emulator_plant_config(sim::load_plant_config_file(file), emu_cfg));
+  drivers::SocketCanConfig bus_cfg;
+  bus_cfg.interface = can.interface;
+  drivers::SocketCanBus bus(bus_cfg);
+  sim::DriveEmulator emu(bus, plant, emu_cfg);
+
+  install_signal_handlers();
+  std::string nodes;
+  for (const auto& d : emu_cfg.drives)
+    nodes += (nodes.empty() ? "" : ",") + std::to_string(d.node_id);
+  fmt::print("dualv sim: {} drives (nodes {}) on {}, SYNC period {:.3f} ms, RPDO watchdog {}\n",
+             emu.size(), nodes, can.interface, static_cast<double>(emu_cfg.sync_period_ns) * 1e-6,
+             emu_cfg.rpdo_watchdog_cycles ? fmt::format("{} cycles", emu_cfg.rpdo_watchdog_cycles)
+                                          : std::string("off"));
+  std::fflush(stdout);
+
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point t0 = Clock::now();
+  auto now_ns = [&] {
+    return static_cast<std::uint64_t>(
+               std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - t0).count()) +
+           1;
+  };
+  auto seconds = [](std::uint64_t ns) { return static_cast<double>(ns) * 1e-9; };
+  emu.poll(now_ns());  // power on: boot-up messages
+  fmt::print("dualv sim: drives booted (boot-up sent)\n");
+  std::fflush(stdout);
+
+  bool estop_done = false, release_done = false, fault_done = false;
+  double next_status = a.status_every > 0 ? a.status_every : -1.0;
+  const char* reason = "signal";
+  while (g_stop == 0) {
+    bus.wait_readable(std::chrono::microseconds(500));
+    const std::uint64_t now = now_ns();
+    emu.poll(now);
+    const double t = seconds(now);
+    if (bus.state() == drivers::BusStatus::kBusOff && bus.restart() == drivers::BusStatus::kOk)
+      fmt::print("dualv sim: bus-off, restarted\n");
+    if (a.estop_after >= 0 && !estop_done && t >= a.estop_after) {
+      emu.press_estop(true);
+      estop_done = true;
+      fmt::print("dualv sim: t={:.3f}s e-stop input pressed (60FDh bit {})\n", t,
+                 fw::od::kDigitalInputEstopBit);
+    }
+    if (a.estop_release_after >= 0 && !release_done && t >= a.estop_release_after) {
+      emu.press_estop(false);
+      release_done = true;
+      fmt::print("dualv sim: t={:.3f}s e-stop input released\n", t);
+    }
+    if (a.fault_after >= 0 && !fault_done && t >= a.fault_after) {
+      emu.inject_fault(a.fault_drive, static_cast<std::uint16_t>(fault_code));
+      fault_done = true;
+      fmt::print("dualv sim: t={:.3f}s fault {:04X}h ({}) injected on drive {}\n", t, fault_code,
+                 fw::emcy_text(static_cast<std::uint16_t>(fault_code)), a.fault_drive);
+    }
+    if (next_status > 0 && t >= next_status) {
+      fmt::print("{}\n", status_line(emu, t));
+      next_status += a.status_every;
+    }
+    std::fflush(stdout);
+    if (a.exit_after >= 0 && t >= a.exit_after) {
+      reason = "--exit-after";
+      break;
+    }
+    if (a.exit_when_idle > 0) {
+      const std::uint64_t last = emu.last_frame_ns();
+      if (t - seconds(last) >= a.exit_when_idle) {
+        reason = "--exit-when-idle";
+        break;
+      }
+    }
+  }
+  fmt::print("{}\n", status_line(emu, seconds(now_ns())));
+  fmt::print("dualv sim: stopped ({}), {} SYNCs, {} frames not for these drives\n", reason,
+             emu.syncs(), emu.unhandled_frames());
+  std::fflush(stdout);
+  return 0;
+}
+
+}  // namespace
+
+void register_sim_command(CLI::App& app) {
+  auto args = std::make_shared<SimArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "sim", "Emulate the CiA 402 drives and the Dual-V mechanism on a CAN interface");
+  add_config_option(*cmd, args->config);
+  cmd->add_option("--can", args->interface, "SocketCAN interface (default: can.interface)");
+  cmd->add_option("--estop-after", args->estop_after,
+                  "Press the e-stop input (60FDh) of every drive after S seconds");
+  cmd->add_option("--estop-release-after", args->estop_release_after,
+                  "Release the e-stop input after S seconds");
+  cmd->add_option("--fault-after", args->fault_after, "Raise a drive fault after S seconds");
+  cmd->add_option("--fault-drive", args->fault_drive, "Drive (0..n-1) for --fault-after");
+  cmd->add_option("--fault-code", args->fault_code, "EMCY code for --fault-after (0x2310)");
+  cmd->add_option("--exit-after", args->exit_after, "Exit after S seconds");
+  cmd->add_option("--exit-when-idle", args->exit_when_idle,
+                  "Exit when no frame has arrived for S seconds");
+  cmd->add_option("--status-every", args->status_every,
+                  "Print a status line every S seconds (0: never)");
+  cmd->add_option("--rpdo-watchdog", args->rpdo_watchdog,
+                  "Drive-side RPDO watchdog in SYNC cycles (0: off; default 3)");
+  cmd->add_flag("--segmented-upload", args->segmented_upload,
+                "Answer every SDO upload with a segmented transfer");
+  cmd->callback([args] { exit_code() = run_sim(*args); });
+}
+
+}  // namespace dualv::apps

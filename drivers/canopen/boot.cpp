@@ -1,0 +1,221 @@
+#include "drivers/canopen/boot.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/config_error.hpp"
+#include "firmware_if/heartbeat.hpp"
+#include "firmware_if/pdo.hpp"
+#include "firmware_if/units.hpp"
+
+namespace dualv::drivers::canopen {
+
+namespace {
+
+using fw::od::PdoDirection;
+
+std::uint16_t ms(std::uint64_t ns) { return static_cast<std::uint16_t>(ns / 1'000'000); }
+
+void add_pdo(std::vector<ConfigWrite>& w, PdoDirection dir, std::uint8_t number,
+             std::uint16_t cob_id, const fw::PdoLayout& layout, std::uint8_t transmission,
+             std::uint16_t event_timer_ms, bool write_event_timer,
+             std::uint16_t inhibit_100us = 0) {
+  const bool rpdo = dir == PdoDirection::kRpdo;
+  // RPDO: bit 30 is reserved (written 0); TPDO: no RTR (bit 30 set).
+  const bool rtr_allowed = rpdo;
+  w.push_back({fw::od::pdo_cob_id(dir, number), fw::pdo_cob_id_value(cob_id, false, rtr_allowed),
+               "PDO invalid while its mapping changes"});
+  w.push_back({fw::od::pdo_mapping_count(dir, number), 0, "clear mapping"});
+  for (std::uint8_t i = 0; i < layout.count; ++i)
+    w.push_back({fw::od::pdo_mapping_entry(dir, number, static_cast<std::uint8_t>(i + 1)),
+                 fw::encode_mapping(layout.entries[i]), "mapping entry"});
+  w.push_back({fw::od::pdo_mapping_count(dir, number), layout.count, "mapping count"});
+  w.push_back({fw::od::pdo_transmission_type(dir, number), transmission, "transmission type"});
+  if (inhibit_100us != 0)
+    w.push_back({fw::od::pdo_inhibit_time(dir, number), inhibit_100us, "inhibit time (100 us)"});
+  if (write_event_timer)
+    w.push_back({fw::od::pdo_event_timer(dir, number), event_timer_ms,
+                 rpdo ? "RPDO deadline (event timer)" : "event timer"});
+  w.push_back({fw::od::pdo_cob_id(dir, number), fw::pdo_cob_id_value(cob_id, true, rtr_allowed),
+               "PDO valid"});
+}
+
+std::uint32_t raw16(std::int16_t v) { return static_cast<std::uint16_t>(v); }
+
+std::uint32_t mask(const fw::OdEntry& e) {
+  return e.size() >= 4 ? 0xFFFFFFFFu : ((1u << (8 * e.size())) - 1u);
+}
+
+}  // namespace
+
+bool interpolation_period(std::uint64_t period_ns, std::uint8_t& value,
+                          std::int8_t& index) noexcept {
+  // Largest exponent that writes the period exactly: 1 ms -> 1 x 10^-3, 2.5 ms -> 25 x 10^-4.
+  for (int exp = 0; exp >= -9; --exp) {
+    const double unit_ns = std::pow(10.0, 9 + exp);
+    const double v = static_cast<double>(period_ns) / unit_ns;
+    if (v <= 255.0 && v >= 1.0 && std::fabs(v - std::round(v)) < 1e-9) {
+      value = static_cast<std::uint8_t>(std::lround(v));
+      index = static_cast<std::int8_t>(exp);
+      return true;
+    }
+  }
+  return false;
+}
+
+std::vector<ConfigWrite> boot_writes(const CanConfig& c, int drive) {
+  const CanDriveConfig& d = c.drives.at(static_cast<std::size_t>(drive));
+  const std::uint8_t id = d.node_id;
+  std::vector<ConfigWrite> w;
+  w.push_back(
+      {fw::od::kProducerHeartbeat, ms(c.drive_heartbeat_period_ns), "drive heartbeat (1017h)"});
+
+  const std::uint16_t deadline = ms(c.rpdo_deadline_ns);
+  if (c.rpdo_layout == fw::RpdoLayoutKind::kPerDrive) {
+    add_pdo(w, PdoDirection::kRpdo, 1, fw::cob_id(fw::Function::kRpdo1, id), fw::kRpdo1Layout,
+            fw::kTransmissionSyncEvery, deadline, true);
+  } else {
+    // Controlword alone in RPDO1, applied on receipt (event driven); the torques in the
+    // broadcast RPDO2, applied at SYNC, with the deadline.
+    add_pdo(w, PdoDirection::kRpdo, 1, fw::cob_id(fw::Function::kRpdo1, id),
+            fw::kControlwordRpdoLayout, fw::kTransmissionEventProfile, 0, true);
+    add_pdo(w, PdoDirection::kRpdo, fw::kBroadcastRpdoNumber, fw::kBroadcastRpdoCobId,
+            fw::broadcast_rpdo_layout(static_cast<std::uint8_t>(drive),
+                                      static_cast<std::uint8_t>(c.drives.size())),
+            fw::kTransmissionSyncEvery, deadline, true);
+  }
+  add_pdo(w, PdoDirection::kTpdo, 1, fw::cob_id(fw::Function::kTpdo1, id), fw::kTpdo1Layout,
+          fw::kTransmissionSyncEvery, 0, false);
+  if (c.digital_inputs_refresh_ns != 0)
+    add_pdo(w, PdoDirection::kTpdo, kDigitalInputsTpdo,
+            fw::cob_id(fw::tpdo_function(kDigitalInputsTpdo), id), kDigitalInputsTpdoLayout,
+            fw::kTransmissionEventProfile, ms(c.digital_inputs_refresh_ns), true, 10);
+
+  w.push_back({fw::od::kModesOfOperation,
+               static_cast<std::uint8_t>(fw::ModeOfOperation::kCyclicSyncTorque),
+               "cyclic synchronous torque (6060h = 10)"});
+  w.push_back({fw::od::kMaxTorque, fw::max_torque_per_mille(d.max_torque, d.rated_torque),
+               "max torque (6072h, per mille of rated)"});
+  w.push_back({fw::od::kQuickStopOption, raw16(static_cast<std::int16_t>(c.quick_stop)),
+               "quick stop option (605Ah)"});
+  w.push_back({fw::od::kFaultReactionOption, raw16(static_cast<std::int16_t>(c.fault_reaction)),
+               "fault reaction option (605Eh)"});
+  w.push_back({fw::od::kAbortConnectionOption, raw16(static_cast<std::int16_t>(c.abort_connection)),
+               "abort connection option (6007h)"});
+  std::uint8_t value = 0;
+  std::int8_t index = 0;
+  if (interpolation_period(c.sync_period_ns, value, index)) {
+    w.push_back({fw::od::kInterpolationPeriodValue, value, "interpolation period value (60C2h)"});
+    w.push_back({fw::od::kInterpolationPeriodIndex, static_cast<std::uint8_t>(index),
+                 "interpolation period index (60C2h)"});
+  }
+  if (c.sync_counter_overflow != 0)
+    w.push_back({fw::od::kSyncCounterOverflow, c.sync_counter_overflow, "SYNC counter (1019h)"});
+  w.push_back({fw::od::consumer_heartbeat(1),
+               fw::consumer_heartbeat_value(c.master_node_id, ms(c.master_heartbeat_timeout_ns)),
+               "consumer heartbeat of the master (1016h)"});
+  return w;
+}
+
+namespace {
+
+void check_parameters(CanopenMaster& m, const CanConfig& c, int i) {
+  const CanDriveConfig& d = c.drives[static_cast<std::size_t>(i)];
+  const std::uint8_t id = d.node_id;
+  std::vector<std::string> problems;
+  const std::uint32_t type = m.read(id, fw::od::kDeviceType);
+  if ((type & 0xFFFFu) != fw::od::kDeviceProfileCia402)
+    problems.push_back(fmt::format(
+        "can.drives[{}].node_id: node {} is not a CiA 402 drive (1000h device type {:08X}h)", i, id,
+        type));
+  const std::uint32_t modes = m.read(id, fw::od::kSupportedDriveModes);
+  if ((modes & fw::supported_mode_bit(fw::ModeOfOperation::kCyclicSyncTorque)) == 0)
+    problems.push_back(
+        fmt::format("can.drives[{}].node_id: node {} does not support cyclic synchronous torque "
+                    "(6502h = {:08X}h)",
+                    i, id, modes));
+  const std::uint32_t rated = m.read(id, fw::od::kRatedTorque);
+  const auto expected_rated = static_cast<std::uint32_t>(std::llround(d.rated_torque * 1000.0));
+  if (rated != expected_rated)
+    problems.push_back(fmt::format(
+        "can.drives[{}].rated_torque: {} N m but node {} reports 6076h = {} mN m ({} N m)", i,
+        d.rated_torque, id, rated, rated / 1000.0));
+  const std::uint32_t inc = m.read(id, fw::od::kEncoderIncrements);
+  const std::uint32_t revs = m.read(id, fw::od::kEncoderMotorRevolutions);
+  const std::uint32_t cpr = fw::counts_per_rev(inc, revs);
+  if (cpr != d.counts_per_revolution)
+    problems.push_back(fmt::format(
+        "can.drives[{}].counts_per_revolution: {} but node {} reports 608Fh = {} / {} = {}", i,
+        d.counts_per_revolution, id, inc, revs, cpr));
+  if (!problems.empty()) throw ConfigError(problems);
+}
+
+void configure(CanopenMaster& m, const CanConfig& c, int i) {
+  const std::uint8_t id = c.drives[static_cast<std::size_t>(i)].node_id;
+  for (const ConfigWrite& w : boot_writes(c, i)) {
+    m.write(id, w.entry, w.value);
+    const std::uint32_t back = m.read(id, w.entry);
+    if ((back & mask(w.entry)) != (w.value & mask(w.entry)))
+      throw CanopenError(fmt::format(
+          "node {}: {} ({}) read back {:#x} after writing {:#x}: the drive did not take the value",
+          id, describe(w.entry), w.why, back, w.value));
+  }
+}
+
+// NMT start (CiA 301 7.2.8.3.1), then wait for each heartbeat to say Operational. NMT
+// commands are unconfirmed: a node that missed one (a lost frame) gets it again every few
+// heartbeat periods until can.timeouts.boot.
+void start_nodes(CanopenMaster& m, const CanConfig& c, const std::vector<std::uint8_t>& nodes) {
+  const std::uint64_t deadline = m.clock().now_ns() + c.boot_timeout_ns;
+  const std::uint64_t slice = std::max<std::uint64_t>(3 * c.drive_heartbeat_period_ns, 100'000'000);
+  std::vector<std::uint8_t> missing = nodes;
+  int sent = 0;
+  for (;;) {
+    for (std::uint8_t id : missing) m.nmt(fw::NmtCommand::kStart, id);
+    ++sent;
+    const std::uint64_t now = m.clock().now_ns();
+    const std::uint64_t wait = deadline > now ? std::min(slice, deadline - now) : 0;
+    try {
+      m.wait_state(missing, fw::NmtState::kOperational, wait);
+      return;
+    } catch (const BootTimeoutError& e) {
+      if (m.clock().now_ns() >= deadline)
+        throw BootTimeoutError(
+            fmt::format("{} (NMT start sent {} times within can.timeouts.boot = {} s)", e.what(),
+                        sent, static_cast<double>(c.boot_timeout_ns) / 1e9),
+            e.nodes());
+      missing = e.nodes();
+    }
+  }
+}
+
+}  // namespace
+
+void boot_drives(CanopenMaster& m, const CanConfig& c) {
+  std::vector<std::uint8_t> nodes;
+  for (const CanDriveConfig& d : c.drives) nodes.push_back(d.node_id);
+  try {
+    m.forget_boot_ups();
+    for (std::uint8_t id : nodes) m.nmt(fw::NmtCommand::kResetNode, id);
+    m.wait_boot_up(nodes, c.boot_timeout_ns);
+    for (int i = 0; i < c.size(); ++i) {
+      if (c.check_drive_parameters) check_parameters(m, c, i);
+      configure(m, c, i);
+    }
+    start_nodes(m, c, nodes);
+  } catch (...) {
+    // Never leave a half-configured bus running: every node back to Pre-operational.
+    for (std::uint8_t id : nodes) {
+      try {
+        m.nmt(fw::NmtCommand::kEnterPreOperational, id);
+      } catch (const std::exception&) {
+        // The original error is the one worth reporting.
+      }
+    }
+    throw;
+  }
+}
+
+}  // namespace dualv::drivers::canopen

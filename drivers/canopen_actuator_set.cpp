@@ -1,0 +1,473 @@
+#include "drivers/canopen_actuator_set.hpp"
+
+#include <fmt/format.h>
+
+#include "common/config_error.hpp"
+#include "drivers/canopen/boot.hpp"
+#include "firmware_if/byte_order.hpp"
+#include "firmware_if/cob_id.hpp"
+#include "firmware_if/emcy.hpp"
+#include "firmware_if/heartbeat.hpp"
+#include "firmware_if/pdo.hpp"
+#include "firmware_if/sync.hpp"
+#include "firmware_if/units.hpp"
+
+namespace dualv::drivers {
+
+const char* to_string(DriveHealth h) noexcept {
+  switch (h) {
+    case DriveHealth::kOk:
+      return "OK";
+    case DriveHealth::kWarn:
+      return "WARN";
+    case DriveHealth::kError:
+      return "ERROR";
+    case DriveHealth::kStale:
+      return "STALE";
+  }
+  return "?";
+}
+
+std::string describe(const DriveHealthReport& h) {
+  std::string s = fmt::format("node {}: {} ({}) NMT {}, CiA 402 {}", h.node, to_string(h.health),
+                              h.reason, h.nmt_known ? fw::to_string(h.nmt_state) : "unknown",
+                              h.cia402_known ? fw::to_string(h.cia402_state) : "unknown");
+  if (h.last_emcy_code != 0)
+    s += fmt::format(", EMCY {:04X}h {} ({})", h.last_emcy_code,
+                     h.emcy_active ? "active" : "cleared", h.last_emcy_text);
+  if (h.own_stop != StopCause::kNone) s += fmt::format(", own stop: {}", to_string(h.own_stop));
+  if (h.transition_timed_out) s += ", CiA 402 transition timed out";
+  if (h.stop_input) s += ", e-stop input active";
+  s += fmt::format(", last TPDO {} cycles ago", h.cycles_since_fresh);
+  return s;
+}
+
+namespace {
+constexpr std::uint32_t bit(int i) noexcept { return 1u << static_cast<unsigned>(i); }
+
+const CanConfig& checked(const CanConfig& c) {
+  validate(c);
+  (void)require_bus_load_fits(c);
+  return c;
+}
+}  // namespace
+
+CanopenActuatorSet::CanopenActuatorSet(CanBus& bus, const canopen::Clock& clock,
+                                       const CanConfig& config)
+    : bus_(bus),
+      clock_(clock),
+      config_(checked(config)),
+      n_(config.size()),
+      bus_load_(bus_load_report(config)),
+      sync_(config.sync_counter_overflow),
+      heartbeat_producer_(config.master_node_id, config.master_heartbeat_period_ns) {
+  drive_of_node_.fill(-1);
+  const std::uint64_t now = clock_.now_ns();
+  for (int i = 0; i < n_; ++i) {
+    const CanDriveConfig& d = config_.drives[static_cast<std::size_t>(i)];
+    drive_of_node_[d.node_id] = static_cast<std::int8_t>(i);
+    drives_[i].set_transition_timeout(config_.transition_timeout_ns);
+    heartbeats_[i] = canopen::HeartbeatConsumer(d.node_id, config_.drive_heartbeat_timeout_ns);
+    heartbeats_[i].arm(now);
+  }
+}
+
+bool CanopenActuatorSet::operational(int i) const noexcept {
+  const canopen::HeartbeatConsumer& h = heartbeats_[i];
+  // Before the first heartbeat the boot sequence vouches for the node (it saw Operational).
+  return !h.timed_out() && (!h.seen() || h.state() == fw::NmtState::kOperational);
+}
+
+void CanopenActuatorSet::lose(int i) noexcept {
+  const bool was_enabled = drives_[i].goal() == Cia402Goal::kOperationEnabled;
+  drives_[i].on_lost();
+  if (was_enabled) events_.own_stop |= bit(i);
+}
+
+void CanopenActuatorSet::latch_bus_off() noexcept {
+  if (bus_off_) return;
+  bus_off_ = true;
+  ++counters_.bus_off;
+  events_.bus_off = true;
+  write_events_.bus_off = true;
+  for (int i = 0; i < n_; ++i) lose(i);
+}
+
+BusStatus CanopenActuatorSet::send(const fw::CanFrame& f) noexcept {
+  const BusStatus s = bus_.send(f);
+  switch (s) {
+    case BusStatus::kOk:
+      break;
+    case BusStatus::kWouldBlock:
+      ++counters_.tx_would_block;  // ENOBUFS: dropped here, never queued for later
+      break;
+    case BusStatus::kBusOff:
+      latch_bus_off();
+      break;
+    default:
+      ++counters_.tx_errors;
+      break;
+  }
+  return s;
+}
+
+void CanopenActuatorSet::on_tpdo(int i, const fw::CanFrame& f) noexcept {
+  DriveCounters& c = drive_counters_[i];
+  const fw::Result<fw::DriveFeedback> fb = fw::decode_tpdo1(f);
+  if (!fb) {
+    ++c.malformed;
+    return;
+  }
+  if (f.timestamp_ns != 0 && tpdo_stamp_[i] != 0 && f.timestamp_ns < tpdo_stamp_[i]) {
+    ++c.out_of_order;  // older than what we already have: never let it overwrite
+    return;
+  }
+  if (tpdos_this_cycle_[i] > 0) {
+    if (fb->statusword == statusword_[i] && fb->position == position_[i]) {
+      ++c.duplicates;
+      return;
+    }
+    ++c.late;  // the older one answered an earlier SYNC; the newest wins
+  }
+  ++tpdos_this_cycle_[i];
+  ++c.tpdos;
+  statusword_[i] = fb->statusword;
+  position_[i] = fb->position;
+  if (f.timestamp_ns != 0) tpdo_stamp_[i] = f.timestamp_ns;
+}
+
+void CanopenActuatorSet::dispatch(const fw::CanFrame& f, std::uint64_t now) noexcept {
+  const fw::Result<fw::CobIdInfo> info = fw::classify(f);
+  if (!info) {
+    ++counters_.unknown_frames;
+    return;
+  }
+  const int i = info->node <= fw::kMaxNodeId ? drive_of_node_[info->node] : -1;
+  switch (info->function) {
+    case fw::Function::kTpdo1:
+      if (i < 0) break;
+      on_tpdo(i, f);
+      return;
+    case fw::Function::kTpdo2: {
+      // 60FDh digital inputs (event driven): the e-stop circuit, as the drive sees it.
+      if (i < 0) break;
+      if (f.dlc != canopen::kDigitalInputsTpdoLayout.bytes() || f.rtr) {
+        ++drive_counters_[i].malformed;
+        return;
+      }
+      const std::uint32_t di = fw::get_u32_le(f.data.data());
+      const bool was = (digital_inputs_[i] & fw::od::kDigitalInputEstopMask) != 0;
+      if (!was && (di & fw::od::kDigitalInputEstopMask) != 0) events_.stop_input |= bit(i);
+      digital_inputs_[i] = di;
+      return;
+    }
+    case fw::Function::kHeartbeat: {
+      if (i < 0) break;
+      const fw::Result<fw::Heartbeat> hb = fw::decode_heartbeat(f);
+      if (!hb) {
+        ++counters_.malformed_frames;
+        return;
+      }
+      const canopen::HeartbeatEvent e = heartbeats_[i].on_heartbeat(hb->state, now);
+      if (e == canopen::HeartbeatEvent::kBootUp) {
+        // The node reset itself: its configuration is gone, it is not ours any more.
+        ++drive_counters_[i].boot_ups;
+        events_.boot_up |= bit(i);
+        lose(i);
+      } else if (hb->state != fw::NmtState::kOperational) {
+        if (e != canopen::HeartbeatEvent::kNone) events_.nmt_not_operational |= bit(i);
+        lose(i);
+      }
+      return;
+    }
+    case fw::Function::kEmcy: {
+      if (i < 0) break;
+      const fw::Result<fw::Emcy> e = fw::decode_emcy(f);
+      if (!e) {
+        ++counters_.malformed_frames;
+        return;
+      }
+      ++drive_counters_[i].emcys;
+      if (emcys_[i].on_emcy(*e, now))
+        events_.emcy_raised |= bit(i);
+      else
+        events_.emcy_cleared |= bit(i);
+      return;
+    }
+    case fw::Function::kSync: {
+      // We are the SYNC producer: another one on the bus is a configuration error.
+      ++counters_.foreign_sync;
+      const fw::Result<fw::Sync> s = fw::decode_sync(f);
+      if (!s) {
+        ++counters_.malformed_frames;
+        return;
+      }
+      if (s->counter != 0 && foreign_sync_counter_ != 0 &&
+          s->counter != fw::next_sync_counter(foreign_sync_counter_, fw::kSyncCounterOverflowMax) &&
+          !(s->counter == fw::kSyncCounterMin &&
+            foreign_sync_counter_ >= fw::kSyncCounterOverflowMin))
+        ++counters_.sync_counter_jumps;
+      foreign_sync_counter_ = s->counter;
+      return;
+    }
+    default:
+      ++counters_.ignored_frames;  // SDO, NMT, RPDOs, other PDOs
+      return;
+  }
+  ++counters_.unknown_frames;  // a node that is not ours
+}
+
+IoStatus CanopenActuatorSet::read(ActuatorFeedback& fb) noexcept {
+  const std::uint64_t now = clock_.now_ns();
+  events_ = write_events_;
+  write_events_ = CycleEvents{};
+  tpdos_this_cycle_.fill(0);
+
+  if (!bus_off_ && bus_.state() == BusStatus::kBusOff) latch_bus_off();
+  if (!bus_off_) {
+    fw::CanFrame f;
+    for (;;) {
+      const BusStatus s = bus_.receive(f);
+      if (s == BusStatus::kOk) {
+        dispatch(f, now);
+        continue;
+      }
+      if (s == BusStatus::kBusOff) latch_bus_off();
+      break;
+    }
+  }
+
+  bool all_fresh = true;
+  bool all_seen = true;
+  for (int i = 0; i < n_; ++i) {
+    if (heartbeats_[i].check(now) == canopen::HeartbeatEvent::kTimeout) {
+      ++drive_counters_[i].heartbeat_timeouts;
+      events_.heartbeat_lost |= bit(i);
+      lose(i);
+    }
+    fresh_[i] = tpdos_this_cycle_[i] > 0 && !bus_off_;
+    if (fresh_[i]) {
+      cycles_since_fresh_[i] = 0;
+      ever_fresh_[i] = true;
+      const std::uint64_t stops = drives_[i].own_stops();
+      const std::uint64_t timeouts = drives_[i].transition_timeouts();
+      if (operational(i)) drives_[i].on_statusword(statusword_[i], now);
+      if (drives_[i].own_stops() != stops) events_.own_stop |= bit(i);
+      if (drives_[i].transition_timeouts() != timeouts) events_.transition_timeout |= bit(i);
+    } else {
+      if (cycles_since_fresh_[i] < 0xFFFFFFFFu) ++cycles_since_fresh_[i];
+      if (sync_sent_last_cycle_) ++drive_counters_[i].missed;
+      events_.stale |= bit(i);
+    }
+    all_fresh = all_fresh && fresh_[i];
+    all_seen = all_seen && ever_fresh_[i];
+
+    DriveFeedback& d = fb.drive[i];
+    const CanDriveConfig& dc = config_.drives[static_cast<std::size_t>(i)];
+    d.state = (operational(i) && !bus_off_) ? drives_[i].drive_state() : DriveState::kOffline;
+    d.position = fw::counts_to_rad(position_[i] - dc.zero_offset, dc.counts_per_revolution);
+    d.fresh = fresh_[i];
+    d.statusword = statusword_[i];
+    d.last_emcy = emcys_[i].active_code();
+    d.stop_input = (digital_inputs_[i] & fw::od::kDigitalInputEstopMask) != 0;
+    d.torque_actual = torque_applied_[i];
+  }
+  sync_sent_last_cycle_ = false;  // a SYNC's answers are expected (and missed) once
+  fb.n = n_;
+  fb.cycle = cycle_;
+  if (bus_off_) return IoStatus::kBusError;
+  if (!all_seen) return IoStatus::kNotReady;
+  return all_fresh ? IoStatus::kOk : IoStatus::kStale;
+}
+
+IoStatus CanopenActuatorSet::write(const ActuatorCommand& command) noexcept {
+  const std::uint64_t now = clock_.now_ns();
+  ++cycle_;
+  ++counters_.cycles;
+  const bool shape_ok = command.n == n_;
+  // A malformed command is treated as a disable request with zero torque.
+  const DriveRequest request = shape_ok ? command.request : DriveRequest::kDisable;
+  sync_sent_last_cycle_ = false;
+  if (bus_off_) {
+    for (int i = 0; i < n_; ++i) sent_[i].sent = false;
+    return IoStatus::kBusError;
+  }
+
+  bool ok = shape_ok;
+  std::array<std::int16_t, kMaxDrives> torque{};
+  for (int i = 0; i < n_; ++i) {
+    const std::uint64_t stops = drives_[i].own_stops();
+    const std::uint64_t timeouts = drives_[i].transition_timeouts();
+    const Cia402Output out = drives_[i].update(operational(i) ? request : DriveRequest::kHold, now);
+    if (drives_[i].own_stops() != stops) write_events_.own_stop |= bit(i);
+    if (drives_[i].transition_timeouts() != timeouts) write_events_.transition_timeout |= bit(i);
+    const CanDriveConfig& dc = config_.drives[static_cast<std::size_t>(i)];
+    // A statusword older than can.timeouts.stale_cycles cannot vouch for Operation enabled.
+    const bool recent = ever_fresh_[i] && cycles_since_fresh_[i] < config_.stale_cycles;
+    torque[i] = (out.torque_allowed && shape_ok && recent)
+                    ? fw::nm_to_per_mille(command.torque[i], dc.rated_torque)
+                    : std::int16_t{0};
+    sent_[i].controlword = out.controlword;
+    sent_[i].torque_per_mille = torque[i];
+    sent_[i].sent = false;
+  }
+  events_.own_stop |= write_events_.own_stop;
+  events_.transition_timeout |= write_events_.transition_timeout;
+
+  if (config_.rpdo_layout == fw::RpdoLayoutKind::kPerDrive) {
+    for (int i = 0; i < n_ && !bus_off_; ++i) {
+      const fw::Result<fw::CanFrame> f = fw::encode_rpdo1(
+          config_.drives[static_cast<std::size_t>(i)].node_id, {sent_[i].controlword, torque[i]});
+      sent_[i].sent = f && send(*f) == BusStatus::kOk;
+      ok = ok && sent_[i].sent;
+    }
+  } else {
+    for (int i = 0; i < n_ && !bus_off_; ++i) {
+      const bool changed = !controlword_ok_[i] || sent_[i].controlword != last_controlword_[i];
+      if (changed ||
+          canopen::expired(controlword_sent_ns_[i], now, config_.controlword_refresh_ns)) {
+        const fw::Result<fw::CanFrame> f = fw::encode_controlword_rpdo(
+            config_.drives[static_cast<std::size_t>(i)].node_id, sent_[i].controlword);
+        if (f && send(*f) == BusStatus::kOk) {
+          controlword_sent_ns_[i] = now;
+          last_controlword_[i] = sent_[i].controlword;
+          controlword_ok_[i] = true;
+        } else {
+          controlword_ok_[i] = false;
+          ok = false;
+        }
+      }
+    }
+    fw::BroadcastTorques t;
+    t.drives = static_cast<std::uint8_t>(n_);
+    for (int i = 0; i < n_; ++i) t.torque[i] = torque[i];
+    const fw::Result<fw::CanFrame> f = fw::encode_broadcast_torques(t);
+    const bool sent = !bus_off_ && f && send(*f) == BusStatus::kOk;
+    for (int i = 0; i < n_; ++i) sent_[i].sent = sent && controlword_ok_[i];
+    ok = ok && sent;
+  }
+  if (!bus_off_) {
+    const BusStatus s = sync_.send(bus_);
+    if (s == BusStatus::kOk) {
+      ++counters_.sync_sent;
+      sync_sent_last_cycle_ = true;
+    } else if (s == BusStatus::kWouldBlock) {
+      ++counters_.tx_would_block;
+      ok = false;
+    } else if (s == BusStatus::kBusOff) {
+      latch_bus_off();
+    } else {
+      ++counters_.tx_errors;
+      ok = false;
+    }
+  }
+  if (!bus_off_) {
+    const std::uint64_t before = heartbeat_producer_.sent();
+    const BusStatus s = heartbeat_producer_.poll(bus_, now);
+    if (s == BusStatus::kWouldBlock) ++counters_.tx_would_block;
+    if (s == BusStatus::kBusOff) latch_bus_off();
+    counters_.heartbeats_sent += heartbeat_producer_.sent() - before;
+  }
+  for (int i = 0; i < n_; ++i)
+    torque_applied_[i] =
+        sent_[i].sent ? fw::per_mille_to_nm(
+                            torque[i], config_.drives[static_cast<std::size_t>(i)].rated_torque)
+                      : 0.0;
+  if (bus_off_) return IoStatus::kBusError;
+  return ok ? IoStatus::kOk : IoStatus::kBusError;
+}
+
+BusStatus CanopenActuatorSet::recover_bus() noexcept {
+  if (!bus_off_) return BusStatus::kOk;
+  const BusStatus s = bus_.restart();
+  if (s != BusStatus::kOk) return s;
+  bus_off_ = false;
+  ++counters_.recoveries;
+  for (int i = 0; i < n_; ++i) {
+    drives_[i].on_lost();  // disabled; a new kEnable is needed
+    tpdo_stamp_[i] = 0;
+    heartbeats_[i].arm(clock_.now_ns());
+  }
+  return BusStatus::kOk;
+}
+
+std::uint32_t CanopenActuatorSet::prime(canopen::Waiter& waiter, std::uint64_t timeout_ns) {
+  const std::uint64_t deadline = clock_.now_ns() + timeout_ns;
+  ActuatorFeedback fb;
+  ActuatorCommand hold;
+  hold.n = n_;
+  hold.request = DriveRequest::kHold;
+  for (;;) {
+    (void)write(hold);
+    const std::uint64_t next = clock_.now_ns() + config_.sync_period_ns;
+    while (clock_.now_ns() < next) waiter.wait_until(next);
+    (void)read(fb);
+    std::uint32_t missing = 0;
+    for (int i = 0; i < n_; ++i)
+      if (!ever_fresh_[i]) missing |= bit(i);
+    if (missing == 0 || clock_.now_ns() >= deadline) return missing;
+  }
+}
+
+void CanopenActuatorSet::service() noexcept {
+  const std::uint64_t now = clock_.now_ns();
+  if (bus_off_) return;
+  fw::CanFrame f;
+  while (bus_.receive(f) == BusStatus::kOk) dispatch(f, now);
+  const std::uint64_t before = heartbeat_producer_.sent();
+  (void)heartbeat_producer_.poll(bus_, now);
+  counters_.heartbeats_sent += heartbeat_producer_.sent() - before;
+}
+
+DriveHealthReport CanopenActuatorSet::health(int i) const noexcept {
+  DriveHealthReport r;
+  if (i < 0 || i >= n_) return r;
+  const canopen::HeartbeatConsumer& hb = heartbeats_[i];
+  const Cia402Drive& d = drives_[i];
+  r.node = config_.drives[static_cast<std::size_t>(i)].node_id;
+  r.nmt_known = hb.seen();
+  r.nmt_state = hb.state();
+  r.heartbeat_timed_out = hb.timed_out();
+  r.cia402_known = d.known();
+  r.cia402_state = d.state();
+  r.state = (operational(i) && !bus_off_) ? d.drive_state() : DriveState::kOffline;
+  r.emcy_active = emcys_[i].active();
+  r.last_emcy_code = emcys_[i].last().error_code;
+  r.last_emcy_text = emcys_[i].last_text();
+  r.own_stop = d.own_stop();
+  r.transition_timed_out = d.transition_timed_out();
+  r.cycles_since_fresh = cycles_since_fresh_[i];
+  r.digital_inputs = digital_inputs_[i];
+  r.stop_input = (digital_inputs_[i] & fw::od::kDigitalInputEstopMask) != 0;
+
+  const bool warning_bit = (statusword_[i] & fw::sw::kWarning) != 0;
+  if (bus_off_) {
+    r.health = DriveHealth::kError, r.reason = "CAN bus-off (latched)";
+  } else if (hb.timed_out()) {
+    r.health = DriveHealth::kStale, r.reason = "heartbeat timed out";
+  } else if (hb.seen() && hb.state() != fw::NmtState::kOperational) {
+    r.health = DriveHealth::kError, r.reason = "NMT state not Operational";
+  } else if (d.known() && (d.state() == fw::Cia402State::kFault ||
+                           d.state() == fw::Cia402State::kFaultReactionActive)) {
+    r.health = DriveHealth::kError, r.reason = "CiA 402 fault";
+  } else if (emcys_[i].active()) {
+    r.health = DriveHealth::kError, r.reason = "EMCY active";
+  } else if (d.transition_timed_out()) {
+    r.health = DriveHealth::kError, r.reason = "CiA 402 transition timed out";
+  } else if (!ever_fresh_[i] || cycles_since_fresh_[i] >= config_.stale_cycles) {
+    r.health = DriveHealth::kStale, r.reason = "no TPDO (position) recently";
+  } else if (r.stop_input) {
+    r.health = DriveHealth::kWarn, r.reason = "e-stop circuit open (60FDh)";
+  } else if (d.own_stop() != StopCause::kNone) {
+    r.health = DriveHealth::kWarn, r.reason = "stopped on its own";
+  } else if (warning_bit) {
+    r.health = DriveHealth::kWarn, r.reason = "statusword warning bit";
+  } else if (cycles_since_fresh_[i] > 0) {
+    r.health = DriveHealth::kWarn, r.reason = "TPDO missed";
+  } else {
+    r.health = DriveHealth::kOk, r.reason = "ok";
+  }
+  return r;
+}
+
+}  // namespace dualv::drivers

@@ -1,0 +1,260 @@
+#include "drivers/canopen_config.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/yaml_reader.hpp"
+
+namespace dualv::drivers {
+
+namespace {
+
+constexpr double kNsPerS = 1e9;
+
+std::uint64_t to_ns(double s) {
+  return s > 0.0 ? static_cast<std::uint64_t>(std::llround(s * kNsPerS)) : 0;
+}
+double to_s(std::uint64_t ns) { return static_cast<double>(ns) / kNsPerS; }
+bool whole_ms(std::uint64_t ns) { return ns % 1'000'000 == 0; }
+
+// The semantic rules, on the parsed values; one message per broken rule, naming the key.
+void check(const CanConfig& c, std::vector<std::string>& p) {
+  auto add = [&p](std::string m) { p.push_back(std::move(m)); };
+  if (c.interface.empty()) add("can.interface: must not be empty (e.g. can0 or vcan0)");
+  if (c.bitrate < 10'000 || c.bitrate > 1'000'000)
+    add(fmt::format("can.bitrate: must be in [10000, 1000000] bit/s (got {})", c.bitrate));
+  if (!(c.max_bus_load > 0.0 && c.max_bus_load <= 1.0))
+    add(fmt::format("can.max_bus_load: must be in (0, 1] (got {})", c.max_bus_load));
+  if (c.rpdo_layout == fw::RpdoLayoutKind::kBroadcast && c.drives.size() > fw::kBroadcastMaxDrives)
+    add(fmt::format("can.rpdo_layout: broadcast carries at most {} drives in one frame (got {})",
+                    fw::kBroadcastMaxDrives, c.drives.size()));
+  if (c.controlword_refresh_ns == 0) add("can.controlword_refresh: must be > 0");
+  if (c.sync_period_ns < 100'000 || c.sync_period_ns > 1'000'000'000)
+    add(fmt::format("can.sync.period: must be in [0.0001, 1] s (got {})", to_s(c.sync_period_ns)));
+  if (c.sync_counter_overflow == 1 || c.sync_counter_overflow > fw::kSyncCounterOverflowMax)
+    add(fmt::format("can.sync.counter_overflow: must be 0 (no counter) or 2..240 (got {})",
+                    c.sync_counter_overflow));
+  if (!fw::is_valid_node_id(c.master_node_id))
+    add(fmt::format("can.master.node_id: must be in 1..127 (got {})", c.master_node_id));
+  if (c.master_heartbeat_period_ns == 0) add("can.master.heartbeat_period: must be > 0");
+  auto od_ms = [&](std::uint64_t ns, const char* key, bool zero_ok) {
+    if (ns == 0 && zero_ok) return;
+    if (ns == 0 || !whole_ms(ns) || ns > 65'535'000'000ull)
+      add(fmt::format("{}: must be whole milliseconds in [0.001, 65.535] s{} (got {})", key,
+                      zero_ok ? " or 0" : "", to_s(ns)));
+  };
+  od_ms(c.drive_heartbeat_period_ns, "can.heartbeat.drive_period", false);
+  od_ms(c.master_heartbeat_timeout_ns, "can.heartbeat.master_timeout", false);
+  od_ms(c.rpdo_deadline_ns, "can.rpdo_deadline", true);
+  od_ms(c.digital_inputs_refresh_ns, "can.digital_inputs_refresh", true);
+  if (c.drive_heartbeat_timeout_ns <= c.drive_heartbeat_period_ns)
+    add(
+        fmt::format("can.heartbeat.drive_timeout: must be longer than can.heartbeat.drive_period "
+                    "({} s <= {} s)",
+                    to_s(c.drive_heartbeat_timeout_ns), to_s(c.drive_heartbeat_period_ns)));
+  if (c.master_heartbeat_timeout_ns <= c.master_heartbeat_period_ns)
+    add(
+        fmt::format("can.heartbeat.master_timeout: must be longer than can.master.heartbeat_period "
+                    "({} s <= {} s): the drives would stop while the host is alive",
+                    to_s(c.master_heartbeat_timeout_ns), to_s(c.master_heartbeat_period_ns)));
+  if (c.rpdo_deadline_ns != 0 && c.rpdo_deadline_ns <= c.sync_period_ns)
+    add(fmt::format("can.rpdo_deadline: must be longer than can.sync.period ({} s <= {} s) or 0",
+                    to_s(c.rpdo_deadline_ns), to_s(c.sync_period_ns)));
+  if (c.sdo_timeout_ns == 0) add("can.timeouts.sdo: must be > 0");
+  if (c.boot_timeout_ns == 0) add("can.timeouts.boot: must be > 0");
+  if (c.transition_timeout_ns == 0) add("can.timeouts.transition: must be > 0");
+  if (c.transition_timeout_ns != 0 && c.transition_timeout_ns < 2 * c.sync_period_ns)
+    add(fmt::format("can.timeouts.transition: must be at least two SYNC periods ({} s)",
+                    to_s(2 * c.sync_period_ns)));
+  if (c.stale_cycles < 1) add("can.timeouts.stale_cycles: must be >= 1");
+  const auto ac = static_cast<int>(c.abort_connection);
+  if (ac < 0 || ac > 3) add(fmt::format("can.options.abort_connection: must be 0..3 (got {})", ac));
+  const auto qs = static_cast<int>(c.quick_stop);
+  if (qs < 0 || qs > 8) add(fmt::format("can.options.quick_stop: must be 0..8 (got {})", qs));
+  const auto fr = static_cast<int>(c.fault_reaction);
+  if (fr < 0 || fr > 4) add(fmt::format("can.options.fault_reaction: must be 0..4 (got {})", fr));
+
+  if (c.drives.empty() || c.drives.size() > static_cast<std::size_t>(kMaxDrives))
+    add(fmt::format("can.drives: must list 1..{} drives (got {})", kMaxDrives, c.drives.size()));
+  for (std::size_t i = 0; i < c.drives.size(); ++i) {
+    const CanDriveConfig& d = c.drives[i];
+    const std::string k = fmt::format("can.drives[{}]", i);
+    if (!fw::is_valid_node_id(d.node_id))
+      add(fmt::format("{}.node_id: must be in 1..127 (got {})", k, d.node_id));
+    for (std::size_t j = 0; j < i; ++j)
+      if (c.drives[j].node_id == d.node_id)
+        add(fmt::format("{}.node_id: {} is also can.drives[{}].node_id", k, d.node_id, j));
+    if (d.node_id == c.master_node_id)
+      add(fmt::format("{}.node_id: {} is the master's can.master.node_id", k, d.node_id));
+    if (d.counts_per_revolution == 0) add(fmt::format("{}.counts_per_revolution: must be > 0", k));
+    if (!(d.rated_torque > 0.0) || d.rated_torque * 1000.0 > 4.0e9)
+      add(fmt::format("{}.rated_torque: must be > 0 N m (got {})", k, d.rated_torque));
+    if (!(d.max_torque > 0.0))
+      add(fmt::format("{}.max_torque: must be > 0 N m (got {})", k, d.max_torque));
+    else if (d.rated_torque > 0.0 && d.max_torque * 1000.0 / d.rated_torque > 65535.0)
+      add(fmt::format("{}.max_torque: {} N m is more than 65535 per mille of rated torque", k,
+                      d.max_torque));
+  }
+}
+
+}  // namespace
+
+int CanConfig::drive_of_node(std::uint8_t node) const noexcept {
+  for (std::size_t i = 0; i < drives.size(); ++i)
+    if (drives[i].node_id == node) return static_cast<int>(i);
+  return -1;
+}
+
+CanConfig default_can_config() {
+  CanConfig c;
+  for (std::uint8_t id = 1; id <= 4; ++id)
+    c.drives.push_back(CanDriveConfig{id, 1u << 20, 50.0, 60.0, 0});
+  return c;
+}
+
+CanConfig load_can_config(const YAML::Node& can_node) {
+  ConfigProblems problems;
+  CanConfig c = default_can_config();
+  YamlReader r(can_node, "can", problems.sink());
+  if (!r.valid()) {
+    problems.finish();
+    return c;
+  }
+  c.interface = r.string("interface", c.interface);
+  const double bitrate = r.number("bitrate", c.bitrate);
+  c.bitrate = bitrate > 0 && bitrate < 4e9 ? static_cast<std::uint32_t>(bitrate) : 0;
+  c.max_bus_load = r.number("max_bus_load", c.max_bus_load);
+  const std::string layout = r.string("rpdo_layout", "per_drive");
+  if (layout == "per_drive")
+    c.rpdo_layout = fw::RpdoLayoutKind::kPerDrive;
+  else if (layout == "broadcast")
+    c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  else
+    r.problem(fmt::format("can.rpdo_layout: must be per_drive or broadcast (got '{}')", layout));
+  c.controlword_refresh_ns = to_ns(r.number("controlword_refresh", to_s(c.controlword_refresh_ns)));
+  {
+    YamlReader s = r.child("sync", false);
+    c.sync_period_ns = to_ns(s.number("period", to_s(c.sync_period_ns)));
+    const int ov = s.integer("counter_overflow", 0);
+    c.sync_counter_overflow = ov >= 0 && ov <= 255 ? static_cast<std::uint8_t>(ov) : 255;
+    s.reject_unknown_keys();
+  }
+  {
+    YamlReader m = r.child("master", false);
+    const int id = m.integer("node_id", c.master_node_id);
+    c.master_node_id = id >= 0 && id <= 255 ? static_cast<std::uint8_t>(id) : 0;
+    c.master_heartbeat_period_ns =
+        to_ns(m.number("heartbeat_period", to_s(c.master_heartbeat_period_ns)));
+    m.reject_unknown_keys();
+  }
+  {
+    YamlReader h = r.child("heartbeat", false);
+    c.drive_heartbeat_period_ns =
+        to_ns(h.number("drive_period", to_s(c.drive_heartbeat_period_ns)));
+    c.drive_heartbeat_timeout_ns =
+        to_ns(h.number("drive_timeout", to_s(c.drive_heartbeat_timeout_ns)));
+    c.master_heartbeat_timeout_ns =
+        to_ns(h.number("master_timeout", to_s(c.master_heartbeat_timeout_ns)));
+    h.reject_unknown_keys();
+  }
+  c.rpdo_deadline_ns = to_ns(r.non_negative("rpdo_deadline", to_s(c.rpdo_deadline_ns)));
+  c.digital_inputs_refresh_ns =
+      to_ns(r.non_negative("digital_inputs_refresh", to_s(c.digital_inputs_refresh_ns)));
+  {
+    YamlReader t = r.child("timeouts", false);
+    c.sdo_timeout_ns = to_ns(t.number("sdo", to_s(c.sdo_timeout_ns)));
+    c.boot_timeout_ns = to_ns(t.number("boot", to_s(c.boot_timeout_ns)));
+    c.transition_timeout_ns = to_ns(t.number("transition", to_s(c.transition_timeout_ns)));
+    const int stale = t.integer("stale_cycles", static_cast<int>(c.stale_cycles));
+    c.stale_cycles = stale > 0 ? static_cast<std::uint32_t>(stale) : 0;
+    t.reject_unknown_keys();
+  }
+  {
+    YamlReader o = r.child("options", false);
+    c.abort_connection = static_cast<fw::AbortConnectionOption>(
+        o.integer("abort_connection", static_cast<int>(c.abort_connection)));
+    c.quick_stop =
+        static_cast<fw::QuickStopOption>(o.integer("quick_stop", static_cast<int>(c.quick_stop)));
+    c.fault_reaction = static_cast<fw::FaultReactionOption>(
+        o.integer("fault_reaction", static_cast<int>(c.fault_reaction)));
+    o.reject_unknown_keys();
+  }
+  c.check_drive_parameters = r.boolean("check_drive_parameters", c.check_drive_parameters);
+  if (r.has("drives")) {
+    c.drives.clear();
+    for (YamlReader& d : r.children("drives")) {
+      CanDriveConfig dc;
+      const int id = d.integer("node_id");
+      dc.node_id = id >= 0 && id <= 255 ? static_cast<std::uint8_t>(id) : 0;
+      const int cpr =
+          d.integer("counts_per_revolution", static_cast<int>(dc.counts_per_revolution));
+      dc.counts_per_revolution = cpr > 0 ? static_cast<std::uint32_t>(cpr) : 0;
+      dc.rated_torque = d.number("rated_torque", dc.rated_torque);
+      dc.max_torque = d.number("max_torque", dc.max_torque);
+      dc.zero_offset = d.integer("zero_offset", 0);
+      d.reject_unknown_keys();
+      c.drives.push_back(dc);
+    }
+  } else {
+    r.children("drives", false);  // mark as read: absent means the default four drives
+  }
+  r.reject_unknown_keys();
+  check(c, *problems.sink());
+  problems.finish();
+  return c;
+}
+
+CanConfig load_can_config_file(const std::string& path) {
+  const YAML::Node root = YamlReader::load_file(path);
+  return load_can_config(root["can"]);
+}
+
+void validate(const CanConfig& config) {
+  ConfigProblems problems;
+  check(config, *problems.sink());
+  problems.finish();
+}
+
+void check_sync_period(const CanConfig& config, double control_period_s) {
+  const std::uint64_t control_ns = to_ns(control_period_s);
+  if (control_ns != config.sync_period_ns)
+    throw ConfigError({fmt::format(
+        "can.sync.period: {} s but the control period is {} s (1 / loop.rate_hz): the SYNC is "
+        "the control cycle, set them equal",
+        to_s(config.sync_period_ns), control_period_s)});
+}
+
+fw::BusLoadReport bus_load_report(const CanConfig& config) noexcept {
+  return fw::bus_load_report(static_cast<std::uint8_t>(config.drives.size()), config.rpdo_layout,
+                             config.cycle_hz(), config.bitrate, config.max_bus_load,
+                             config.sync_bytes());
+}
+
+std::string format_bus_load(const CanConfig& config, const fw::BusLoadReport& r) {
+  return fmt::format(
+      "CAN bus load: {} drives, {}, SYNC {} B: {} bits/cycle worst case; at {:.1f} Hz and {} "
+      "bit/s: {:.1f} % (limit {:.1f} %); max rate {:.1f} Hz{}",
+      config.drives.size(), fw::to_string(r.layout), config.sync_bytes(), r.bits_per_cycle,
+      config.cycle_hz(), config.bitrate, 100.0 * r.load, 100.0 * config.max_bus_load, r.max_rate_hz,
+      r.fits ? "" : " -- DOES NOT FIT");
+}
+
+fw::BusLoadReport require_bus_load_fits(const CanConfig& config) {
+  const fw::BusLoadReport r = bus_load_report(config);
+  if (!r.fits) {
+    const double needed = static_cast<double>(r.bits_per_cycle) * config.cycle_hz();
+    const double usable = config.bitrate * config.max_bus_load;
+    throw ConfigError({fmt::format(
+        "can.sync.period: {:.1f} Hz needs {:.0f} bit/s worst case ({} bits/cycle, {}) but the "
+        "bus carries {} bit/s x {:.1f} % = {:.0f} bit/s; lower the rate to at most {:.1f} Hz{}",
+        config.cycle_hz(), needed, r.bits_per_cycle, fw::to_string(r.layout), config.bitrate,
+        100.0 * config.max_bus_load, usable, usable / r.bits_per_cycle,
+        config.rpdo_layout == fw::RpdoLayoutKind::kPerDrive ? " or use can.rpdo_layout: broadcast"
+                                                            : "")});
+  }
+  return r;
+}
+
+}  // namespace dualv::drivers

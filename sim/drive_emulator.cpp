@@ -1,0 +1,1270 @@
+#include "sim/drive_emulator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+namespace dualv::sim {
+
+namespace {
+
+using fw::Cia402State;
+using fw::OdEntry;
+using fw::SdoAbortCode;
+using fw::od::PdoDirection;
+
+constexpr std::size_t kOdCapacity = 160;
+constexpr std::uint32_t kNoAbort = 0;
+
+constexpr std::uint32_t abort_value(SdoAbortCode c) noexcept {
+  return static_cast<std::uint32_t>(c);
+}
+
+constexpr std::uint32_t mask_of(const OdEntry& e) noexcept {
+  return e.size() >= 4 ? 0xFFFFFFFFu : ((1u << e.bits()) - 1u);
+}
+
+constexpr std::int32_t as_signed(std::uint32_t raw, std::uint8_t size) noexcept {
+  switch (size) {
+    case 1:
+      return static_cast<std::int8_t>(raw & 0xFFu);
+    case 2:
+      return static_cast<std::int16_t>(raw & 0xFFFFu);
+    default:
+      return static_cast<std::int32_t>(raw);
+  }
+}
+
+// 1001h error register bits for an EMCY error code's class (CiA 301 7.5.2.2).
+constexpr std::uint8_t error_register_for(std::uint16_t code) noexcept {
+  std::uint8_t r = fw::error_register::kGeneric;
+  switch (code >> 12) {
+    case 0x2:
+      r |= fw::error_register::kCurrent;
+      break;
+    case 0x3:
+      r |= fw::error_register::kVoltage;
+      break;
+    case 0x4:
+      r |= fw::error_register::kTemperature;
+      break;
+    case 0x8:
+      r |= fw::error_register::kCommunication;
+      break;
+    default:
+      break;
+  }
+  return r;
+}
+
+struct Slot {
+  OdEntry entry{};
+  std::uint32_t value = 0;
+  std::uint32_t initial = 0;
+};
+
+struct MapRef {
+  int slot = -1;  // -1: dummy entry (RPDO only)
+  std::uint8_t bytes = 0;
+};
+
+struct Pdo {
+  // From the dictionary (rebuild()).
+  bool valid = false;
+  std::uint16_t cob = 0;
+  std::uint8_t type = 0;
+  std::uint16_t event_ms = 0;
+  std::uint8_t count = 0;
+  std::array<MapRef, fw::od::kPdoMaxMappedObjects> map{};
+  std::uint8_t bytes = 0;
+  bool maps_torque = false;
+  // Run time.
+  std::array<std::uint8_t, 8> staged{};  // synchronous RPDO waiting for the next SYNC
+  bool pending = false;
+  std::uint8_t sync_count = 0;         // TPDO types 1..240
+  std::array<std::uint8_t, 8> last{};  // TPDO types 0/254/255: last sent
+  bool sent_once = false;
+  std::uint64_t next_event_ns = 0;  // TPDO event timer
+  std::uint64_t last_rx_ns = 0;     // RPDO deadline (event timer)
+  bool deadline_armed = false;
+};
+
+enum class SdoState : std::uint8_t { kIdle, kDownload, kUpload };
+
+bool is_pdo_parameter(std::uint16_t index) noexcept {
+  return (index >= fw::od::kRpdoCommunicationBase &&
+          index < fw::od::kRpdoCommunicationBase + kEmulatedPdos) ||
+         (index >= fw::od::kRpdoMappingBase && index < fw::od::kRpdoMappingBase + kEmulatedPdos) ||
+         (index >= fw::od::kTpdoCommunicationBase &&
+          index < fw::od::kTpdoCommunicationBase + kEmulatedPdos) ||
+         (index >= fw::od::kTpdoMappingBase && index < fw::od::kTpdoMappingBase + kEmulatedPdos);
+}
+
+}  // namespace
+
+const char* to_string(EmulatedNmt s) noexcept {
+  switch (s) {
+    case EmulatedNmt::kInitialisation:
+      return "INIT";
+    case EmulatedNmt::kPreOperational:
+      return "PRE-OP";
+    case EmulatedNmt::kOperational:
+      return "OP";
+    case EmulatedNmt::kStopped:
+      return "STOPPED";
+  }
+  return "?";
+}
+
+// ---- configuration -------------------------------------------------------------------
+
+void DriveEmulatorConfig::validate(int plant_joints) const {
+  auto fail = [](const std::string& what) {
+    throw std::invalid_argument("drive emulator: " + what);
+  };
+  if (drives.empty()) fail("no drives configured (can.drives is empty)");
+  if (static_cast<int>(drives.size()) > kMaxEmulatedDrives)
+    fail(std::to_string(drives.size()) + " drives, at most " + std::to_string(kMaxEmulatedDrives));
+  if (static_cast<int>(drives.size()) != plant_joints)
+    fail(std::to_string(drives.size()) + " drives for a plant of " + std::to_string(plant_joints) +
+         " joints: configure one drive per joint (can.drives)");
+  for (std::size_t i = 0; i < drives.size(); ++i) {
+    const DriveEmulatorDrive& d = drives[i];
+    const std::string who =
+        "drive " + std::to_string(i) + " (node " + std::to_string(d.node_id) + ")";
+    if (!fw::is_valid_node_id(d.node_id)) fail(who + ": node id must be 1..127");
+    for (std::size_t j = 0; j < i; ++j)
+      if (drives[j].node_id == d.node_id) fail(who + ": node id used twice");
+    if (d.counts_per_revolution == 0) fail(who + ": counts_per_revolution must be > 0");
+    if (d.rated_torque_mnm == 0) fail(who + ": rated torque must be > 0");
+  }
+  if (sync_period_ns == 0) fail("SYNC period must be > 0");
+}
+
+DriveEmulatorConfig emulator_config_from(const drivers::CanConfig& can) {
+  DriveEmulatorConfig c;
+  for (const drivers::CanDriveConfig& d : can.drives) {
+    DriveEmulatorDrive e;
+    e.node_id = d.node_id;
+    e.counts_per_revolution = d.counts_per_revolution;
+    e.rated_torque_mnm = static_cast<std::uint32_t>(std::llround(d.rated_torque * 1000.0));
+    e.max_torque_per_mille = fw::max_torque_per_mille(d.max_torque, d.rated_torque);
+    e.zero_offset = d.zero_offset;
+    c.drives.push_back(e);
+  }
+  c.sync_period_ns = can.sync_period_ns;
+  c.abort_connection = can.abort_connection;
+  c.quick_stop = can.quick_stop;
+  c.fault_reaction = can.fault_reaction;
+  // 1017h and 1016h are written by the master at boot; until then the drives are silent
+  // apart from their boot-up message, as most drives are out of the box.
+  return c;
+}
+
+PlantConfig emulator_plant_config(const PlantConfig& plant, const DriveEmulatorConfig& emu) {
+  PlantConfig p = plant;
+  // The wire quantises: 6071h is an integer per mille of 6076h.
+  p.torque_quantisation.enabled = false;
+  // The bus provides one cycle of transport delay (SYNC-latched torque, see the header).
+  if (p.transport_delay.enabled) {
+    p.transport_delay.cycles -= 1;
+    if (p.transport_delay.cycles <= 0) {
+      p.transport_delay.enabled = false;
+      p.transport_delay.cycles = 1;  // unused when disabled; keeps the loader's range
+    }
+  }
+  if (!emu.drives.empty()) {
+    const std::uint32_t cpr = emu.drives.front().counts_per_revolution;
+    for (const DriveEmulatorDrive& d : emu.drives)
+      if (d.counts_per_revolution != cpr)
+        throw std::invalid_argument(
+            "drive emulator: every drive needs the same counts_per_revolution (the plant has "
+            "one encoder resolution); node " +
+            std::to_string(d.node_id) + " has " + std::to_string(d.counts_per_revolution) +
+            ", node " + std::to_string(emu.drives.front().node_id) + " has " + std::to_string(cpr));
+    p.encoder.counts_per_revolution = cpr;
+  }
+  return p;
+}
+
+// ---- one slave ---------------------------------------------------------------------------
+
+struct DriveEmulator::Drive {
+  int index = 0;  // plant joint
+  std::uint8_t node = 1;
+  DriveEmulatorDrive cfg{};
+
+  std::array<Slot, kOdCapacity> od{};
+  std::size_t od_count = 0;
+  // Slots of the objects the emulator acts on.
+  int s_cw = -1, s_sw = -1, s_tt = -1, s_mode = -1, s_mode_disp = -1, s_pos = -1, s_vel = -1,
+      s_torque = -1, s_din = -1, s_err = -1, s_err_reg = -1, s_hb_prod = -1, s_abort = -1,
+      s_qs = -1, s_max = -1, s_rated = -1, s_sync = -1, s_period = -1;
+  std::array<int, kEmulatedConsumerHeartbeats> s_hb_cons{};
+
+  std::array<Pdo, kEmulatedPdos> rpdo{};
+  std::array<Pdo, kEmulatedPdos> tpdo{};
+
+  EmulatedNmt nmt = EmulatedNmt::kInitialisation;
+  Cia402State state = Cia402State::kNotReadyToSwitchOn;
+  std::uint8_t last_transition = 0;
+  std::uint16_t prev_cw = 0;  // bit 7 edge detection
+  bool qs_to_disabled = false;
+  bool limit_active = false;
+  double torque_nm = 0.0;
+
+  // NMT error control.
+  std::uint64_t next_hb_ns = 0;
+  std::array<std::uint64_t, kEmulatedConsumerHeartbeats> hb_last_ns{};
+  std::array<bool, kEmulatedConsumerHeartbeats> hb_armed{};
+  std::array<bool, kEmulatedConsumerHeartbeats> hb_lost{};
+
+  // RPDO watchdog.
+  bool wd_armed = false;
+  bool torque_rx_since_sync = false;
+  std::uint32_t wd_missed = 0;
+  bool wd_tripped = false;
+
+  // Injection.
+  bool silent = false;
+  bool refuse_boot = false;
+  bool boot_pending = false;
+  std::uint32_t drop_tpdos = 0;
+  std::int32_t encoder_offset = 0;
+  std::uint32_t hw_inputs = 0;  // 60FDh as wired
+
+  // SDO server.
+  SdoState sdo = SdoState::kIdle;
+  int sdo_slot = -1;
+  std::array<std::uint8_t, 16> sdo_rx{};
+  fw::SdoSegmentReceiver receiver{std::span<std::uint8_t>(sdo_rx)};
+  std::array<std::uint8_t, 4> sdo_tx{};
+  fw::SdoSegmentSender sender{};
+
+  EmulatedDriveCounters counters{};
+
+  // ---- dictionary ----
+  int find(std::uint16_t idx, std::uint8_t sub) const noexcept {
+    for (std::size_t i = 0; i < od_count; ++i)
+      if (od[i].entry.index == idx && od[i].entry.subindex == sub) return static_cast<int>(i);
+    return -1;
+  }
+  int find(const OdEntry& e) const noexcept { return find(e.index, e.subindex); }
+  bool has_index(std::uint16_t idx) const noexcept {
+    for (std::size_t i = 0; i < od_count; ++i)
+      if (od[i].entry.index == idx) return true;
+    return false;
+  }
+  int add(const OdEntry& e, std::uint32_t initial) {
+    if (od_count >= od.size()) throw std::logic_error("drive emulator: dictionary full");
+    od[od_count] = Slot{e, initial & mask_of(e), initial & mask_of(e)};
+    return static_cast<int>(od_count++);
+  }
+  std::uint32_t u(int slot) const noexcept { return slot >= 0 ? od[slot].value : 0; }
+  std::int32_t i(int slot) const noexcept {
+    return slot >= 0 ? as_signed(od[slot].value, od[slot].entry.size()) : 0;
+  }
+  void set(int slot, std::uint32_t v) noexcept {
+    if (slot >= 0) od[slot].value = v & mask_of(od[slot].entry);
+  }
+
+  void build(const DriveEmulatorConfig& c, int joint) {
+    namespace od = fw::od;
+    index = joint;
+    cfg = c.drives[static_cast<std::size_t>(joint)];
+    node = cfg.node_id;
+    add(od::kDeviceType, 0x00020000u | od::kDeviceProfileCia402);  // servo drive, CiA 402
+    s_err_reg = add(od::kErrorRegister, 0);
+    s_sync = add(od::kCobIdSync, fw::kSyncCobId);
+    s_period =
+        add(od::kCommunicationCyclePeriod, static_cast<std::uint32_t>(c.sync_period_ns / 1000u));
+    add(od::kCobIdEmcy, fw::cob_id(fw::Function::kEmcy, node));
+    add(od::kConsumerHeartbeatCount, kEmulatedConsumerHeartbeats);
+    for (std::uint8_t s = 1; s <= kEmulatedConsumerHeartbeats; ++s)
+      s_hb_cons[s - 1u] = add(od::consumer_heartbeat(s), s == 1 ? c.consumer_heartbeat : 0u);
+    s_hb_prod = add(od::kProducerHeartbeat, c.producer_heartbeat_ms);
+    add(od::kIdentityVendorId, c.vendor_id);
+    add(od::kIdentityProductCode, c.product_code);
+    add(od::kSyncCounterOverflow, 0);
+    s_abort = add(od::kAbortConnectionOption, static_cast<std::uint16_t>(c.abort_connection));
+    s_err = add(od::kErrorCode, 0);
+    s_cw = add(od::kControlword, 0);
+    s_sw = add(od::kStatusword, 0);
+    s_qs = add(od::kQuickStopOption, static_cast<std::uint16_t>(c.quick_stop));
+    add(od::kShutdownOption, 0);
+    add(od::kDisableOperationOption, 0);
+    add(od::kHaltOption, static_cast<std::uint16_t>(fw::HaltOption::kSlowDownRamp));
+    add(od::kFaultReactionOption, static_cast<std::uint16_t>(c.fault_reaction));
+    s_mode = add(od::kModesOfOperation, 0);
+    s_mode_disp = add(od::kModesOfOperationDisplay, 0);
+    s_pos = add(od::kPositionActual, 0);
+    s_vel = add(od::kVelocityActual, 0);
+    s_tt = add(od::kTargetTorque, 0);
+    s_max = add(od::kMaxTorque, cfg.max_torque_per_mille);
+    s_rated = add(od::kRatedTorque, cfg.rated_torque_mnm);
+    s_torque = add(od::kTorqueActual, 0);
+    add(od::kEncoderIncrements, cfg.counts_per_revolution);
+    add(od::kEncoderMotorRevolutions, 1);
+    add(od::kInterpolationPeriodValue, 1);
+    add(od::kInterpolationPeriodIndex, static_cast<std::uint8_t>(-3));  // 1 x 10^-3 s
+    s_din = add(od::kDigitalInputs, 0);
+    add(od::kSupportedDriveModes, fw::supported_mode_bit(fw::ModeOfOperation::kCyclicSyncTorque));
+    // PDO records (CiA 301 7.5.2.35..38): RPDO1 / TPDO1 as the contract's defaults.
+    for (std::uint8_t n = 1; n <= kEmulatedPdos; ++n) {
+      for (PdoDirection d : {PdoDirection::kRpdo, PdoDirection::kTpdo}) {
+        const bool rx = d == PdoDirection::kRpdo;
+        const fw::Function f = rx ? fw::rpdo_function(n) : fw::tpdo_function(n);
+        add(od::pdo_cob_id(d, n), fw::pdo_cob_id_value(fw::cob_id(f, node), n == 1));
+        add(od::pdo_transmission_type(d, n),
+            n == 1 ? fw::kTransmissionSyncEvery : fw::kTransmissionEventProfile);
+        add(od::pdo_inhibit_time(d, n), 0);
+        add(od::pdo_event_timer(d, n), 0);
+        const fw::PdoLayout& l = rx ? fw::kRpdo1Layout : fw::kTpdo1Layout;
+        add(od::pdo_mapping_count(d, n), n == 1 ? l.count : 0);
+        for (std::uint8_t s = 1; s <= od::kPdoMaxMappedObjects; ++s)
+          add(od::pdo_mapping_entry(d, n, s),
+              (n == 1 && s <= l.count) ? fw::encode_mapping(l.entries[s - 1u]) : 0u);
+      }
+    }
+    for (std::uint8_t n = 1; n <= kEmulatedPdos; ++n) {
+      rebuild(PdoDirection::kRpdo, n);
+      rebuild(PdoDirection::kTpdo, n);
+    }
+  }
+
+  // ---- PDOs ----
+  void rebuild(PdoDirection d, std::uint8_t n) noexcept {
+    const bool rx = d == PdoDirection::kRpdo;
+    Pdo& p = rx ? rpdo[n - 1u] : tpdo[n - 1u];
+    p = Pdo{};
+    const std::uint32_t cob = u(find(fw::od::pdo_cob_id(d, n)));
+    p.valid = (cob & fw::kPdoCobIdInvalid) == 0;
+    p.cob = static_cast<std::uint16_t>(cob & fw::kMaxStandardId);
+    p.type = static_cast<std::uint8_t>(u(find(fw::od::pdo_transmission_type(d, n))));
+    p.event_ms = static_cast<std::uint16_t>(u(find(fw::od::pdo_event_timer(d, n))));
+    const auto count = static_cast<std::uint8_t>(std::min<std::uint32_t>(
+        u(find(fw::od::pdo_mapping_count(d, n))), fw::od::kPdoMaxMappedObjects));
+    std::uint32_t bits = 0;
+    for (std::uint8_t s = 1; s <= count; ++s) {
+      const fw::PdoMapEntry e = fw::decode_mapping(u(find(fw::od::pdo_mapping_entry(d, n, s))));
+      MapRef m;
+      m.bytes = static_cast<std::uint8_t>(e.bits / 8);
+      if (!fw::is_dummy(e)) {
+        m.slot = find(e.index, e.subindex);
+        if (m.slot < 0) return;  // checked when sub0 was written; never from defaults
+        if (e.index == fw::od::kTargetTorque.index) p.maps_torque = true;
+      }
+      bits += e.bits;
+      p.map[s - 1u] = m;
+    }
+    p.count = count;
+    p.bytes = static_cast<std::uint8_t>((bits + 7) / 8);
+  }
+
+  std::uint32_t check_mapping(PdoDirection d, std::uint8_t n, std::uint32_t count) const noexcept {
+    const bool rx = d == PdoDirection::kRpdo;
+    if (count > fw::od::kPdoMaxMappedObjects) return abort_value(SdoAbortCode::kMappingTooLong);
+    std::uint32_t bits = 0;
+    for (std::uint8_t s = 1; s <= count; ++s) {
+      const fw::PdoMapEntry e = fw::decode_mapping(u(find(fw::od::pdo_mapping_entry(d, n, s))));
+      if (fw::is_dummy(e)) {
+        // Dummies only in RPDOs, with the type's own length (CiA 301 7.4.7.1).
+        const auto t = static_cast<fw::DataType>(e.index);
+        if (!rx || e.bits != 8 * fw::size_of(t)) return abort_value(SdoAbortCode::kCannotBeMapped);
+      } else {
+        const int slot = find(e.index, e.subindex);
+        if (slot < 0) return abort_value(SdoAbortCode::kObjectDoesNotExist);
+        const OdEntry& o = od[static_cast<std::size_t>(slot)].entry;
+        const bool writable = o.access == fw::Access::kRw || o.access == fw::Access::kWo;
+        const bool readable = o.access != fw::Access::kWo;
+        if (!o.pdo_mappable || e.bits != o.bits() || (rx && !writable) || (!rx && !readable))
+          return abort_value(SdoAbortCode::kCannotBeMapped);
+      }
+      bits += e.bits;
+    }
+    if (bits > 64) return abort_value(SdoAbortCode::kMappingTooLong);
+    return kNoAbort;
+  }
+
+  // ---- value checks for SDO downloads (CiA 301 table 22 codes) ----
+  std::uint32_t check_write(int slot, std::uint32_t v) const noexcept {
+    namespace fo = fw::od;
+    const OdEntry& e = od[static_cast<std::size_t>(slot)].entry;
+    const std::int32_t sv = as_signed(v, e.size());
+    auto range = [&](std::int32_t lo, std::int32_t hi) -> std::uint32_t {
+      if (sv < lo) return abort_value(SdoAbortCode::kValueTooLow);
+      if (sv > hi) return abort_value(SdoAbortCode::kValueTooHigh);
+      return kNoAbort;
+    };
+    if (e.same_object(fo::kCobIdSync.index, 0)) {
+      // Bit 30 (this node generates SYNC) and bit 29 (29-bit id) are not supported.
+      return (v & 0x60000000u) ? abort_value(SdoAbortCode::kInvalidValue) : kNoAbort;
+    }
+    if (e.same_object(fo::kSyncCounterOverflow.index, 0))
+      return (v == 0 || (v >= fw::kSyncCounterOverflowMin && v <= fw::kSyncCounterOverflowMax))
+                 ? kNoAbort
+                 : abort_value(SdoAbortCode::kInvalidValue);
+    if (e.same_object(fo::kAbortConnectionOption.index, 0)) return range(0, 3);
+    if (e.same_object(fo::kQuickStopOption.index, 0)) return range(0, 8);
+    if (e.same_object(fo::kShutdownOption.index, 0)) return range(0, 1);
+    if (e.same_object(fo::kDisableOperationOption.index, 0)) return range(0, 1);
+    if (e.same_object(fo::kHaltOption.index, 0)) return range(1, 4);
+    if (e.same_object(fo::kFaultReactionOption.index, 0)) return range(0, 4);
+    if (e.same_object(fo::kModesOfOperation.index, 0))
+      return (sv == 0 || sv == static_cast<std::int8_t>(fw::ModeOfOperation::kCyclicSyncTorque))
+                 ? kNoAbort
+                 : abort_value(SdoAbortCode::kInvalidValue);
+    if (e.same_object(fo::kRatedTorque.index, 0) || e.index == fo::kEncoderIncrements.index)
+      return v == 0 ? abort_value(SdoAbortCode::kValueTooLow) : kNoAbort;
+    if (is_pdo_parameter(e.index)) return check_pdo_write(e, v);
+    return kNoAbort;
+  }
+
+  std::uint32_t check_pdo_write(const OdEntry& e, std::uint32_t v) const noexcept {
+    namespace fo = fw::od;
+    const bool comm = e.index < fo::kRpdoMappingBase ||
+                      (e.index >= fo::kTpdoCommunicationBase && e.index < fo::kTpdoMappingBase);
+    const bool rx = e.index < fo::kTpdoCommunicationBase;
+    const PdoDirection d = rx ? PdoDirection::kRpdo : PdoDirection::kTpdo;
+    const std::uint16_t base = comm ? (rx ? fo::kRpdoCommunicationBase : fo::kTpdoCommunicationBase)
+                                    : (rx ? fo::kRpdoMappingBase : fo::kTpdoMappingBase);
+    const auto n = static_cast<std::uint8_t>(e.index - base + 1);
+    const Pdo& p = rx ? rpdo[n - 1u] : tpdo[n - 1u];
+    if (comm) {
+      if (e.subindex == fo::kPdoSubCobId) {
+        if (v & (1u << 29)) return abort_value(SdoAbortCode::kInvalidValue);  // 29-bit id
+        const bool new_valid = (v & fw::kPdoCobIdInvalid) == 0;
+        // CiA 301 7.5.2.35: the COB-ID may not change while the PDO stays valid.
+        if (p.valid && new_valid && (v & fw::kMaxStandardId) != p.cob)
+          return abort_value(SdoAbortCode::kInvalidValue);
+        return kNoAbort;
+      }
+      if (e.subindex == fo::kPdoSubTransmissionType)
+        return (v <= 240 || v >= fw::kTransmissionEventManufacturer)
+                   ? kNoAbort
+                   : abort_value(SdoAbortCode::kInvalidValue);
+      return kNoAbort;
+    }
+    // Mapping (CiA 301 7.5.2.36): only while the PDO is not valid; entries only with sub0 = 0.
+    if (p.valid) return abort_value(SdoAbortCode::kUnsupportedAccess);
+    if (e.subindex == 0) return v == 0 ? kNoAbort : check_mapping(d, n, v);
+    if (u(find(fo::pdo_mapping_count(d, n))) != 0)
+      return abort_value(SdoAbortCode::kUnsupportedAccess);
+    return kNoAbort;
+  }
+
+  // ---- output ----
+  bool can_talk() const noexcept { return !silent && nmt != EmulatedNmt::kInitialisation; }
+  void send(DriveEmulator& emu, const fw::Result<fw::CanFrame>& frame) noexcept {
+    if (!frame || silent) return;
+    if (emu.bus_.send(*frame) != drivers::BusStatus::kOk) ++counters.tx_failures;
+  }
+  void send_emcy(DriveEmulator& emu, std::uint16_t code) noexcept {
+    // EMCY in Pre-operational and Operational only (CiA 301 7.3.2.2, table 75).
+    if (!can_talk() || nmt == EmulatedNmt::kStopped) return;
+    fw::Emcy e;
+    e.node = node;
+    e.error_code = code;
+    e.error_register = static_cast<std::uint8_t>(u(s_err_reg));
+    send(emu, fw::encode_emcy(e));
+    ++counters.emcy_sent;
+  }
+  void send_sdo_abort(DriveEmulator& emu, std::uint16_t idx, std::uint8_t sub,
+                      std::uint32_t code) noexcept {
+    send(emu, fw::sdo_abort(node, fw::SdoRole::kServer, idx, sub, code));
+    ++counters.sdo_aborts_sent;
+    sdo = SdoState::kIdle;
+  }
+
+  // ---- CiA 402 ----
+  std::uint16_t statusword(bool estop_input) const noexcept {
+    std::uint16_t w = static_cast<std::uint16_t>(fw::statusword_bits(state) | fw::sw::kRemote);
+    if (state == Cia402State::kSwitchedOn || state == Cia402State::kOperationEnabled ||
+        state == Cia402State::kQuickStopActive)
+      w |= fw::sw::kVoltageEnabled;
+    if (state == Cia402State::kOperationEnabled && mode_is_cst()) {
+      w |= fw::sw::kDriveFollowsCommand;
+      if (limit_active) w |= fw::sw::kInternalLimitActive;
+    }
+    if (estop_input) w |= fw::sw::kWarning;
+    return w;
+  }
+  bool mode_is_cst() const noexcept {
+    return i(s_mode) == static_cast<std::int8_t>(fw::ModeOfOperation::kCyclicSyncTorque);
+  }
+  bool estop_input() const noexcept { return (u(s_din) & fw::od::kDigitalInputEstopMask) != 0; }
+
+  void set_state(DriveEmulator& emu, Cia402State s, std::uint8_t transition) noexcept {
+    state = s;
+    last_transition = transition;
+    if (s != Cia402State::kQuickStopActive) qs_to_disabled = false;
+    set(s_sw, statusword(estop_input()));
+    if (s != Cia402State::kOperationEnabled && torque_nm != 0.0) {
+      // Torque off at once: re-command the plant for the current period.
+      torque_nm = 0.0;
+      limit_active = false;
+      emu.torque_[index] = 0.0;
+      emu.command_plant();
+    }
+  }
+
+  // Quick stop active entered (transition 11 or a 6007h reaction): 605Ah decides the rest.
+  void enter_quick_stop(DriveEmulator& emu) noexcept {
+    set_state(emu, Cia402State::kQuickStopActive, 11);
+    const std::int32_t opt = i(s_qs);
+    if (opt == static_cast<std::int16_t>(fw::QuickStopOption::kDisableDrive))
+      set_state(emu, Cia402State::kSwitchOnDisabled, 12);
+    else if (opt <= static_cast<std::int16_t>(fw::QuickStopOption::kVoltageLimit))
+      qs_to_disabled = true;  // "stopped" at the next SYNC (the ramp is not modelled)
+  }
+
+  // Disable voltage from whatever power state (transitions 7, 10, 9, 12).
+  void disable_voltage(DriveEmulator& emu) noexcept {
+    switch (state) {
+      case Cia402State::kReadyToSwitchOn:
+        set_state(emu, Cia402State::kSwitchOnDisabled, 7);
+        break;
+      case Cia402State::kSwitchedOn:
+        set_state(emu, Cia402State::kSwitchOnDisabled, 10);
+        break;
+      case Cia402State::kOperationEnabled:
+        set_state(emu, Cia402State::kSwitchOnDisabled, 9);
+        break;
+      case Cia402State::kQuickStopActive:
+        set_state(emu, Cia402State::kSwitchOnDisabled, 12);
+        break;
+      default:
+        break;
+    }
+  }
+
+  void enter_fault(DriveEmulator& emu, std::uint16_t code) noexcept {
+    set(s_err, code);
+    set(s_err_reg, u(s_err_reg) | error_register_for(code));
+    if (state != Cia402State::kFault) {
+      set_state(emu, Cia402State::kFaultReactionActive, 13);
+      set_state(emu, Cia402State::kFault, 14);  // no reaction ramp modelled: torque is off
+    }
+    send_emcy(emu, code);
+  }
+
+  void fault_reset(DriveEmulator& emu) noexcept {
+    set_state(emu, Cia402State::kSwitchOnDisabled, 15);
+    set(s_err, fw::emcy::kNoError);
+    const bool comm_lost = hb_lost[0] || hb_lost[1];
+    set(s_err_reg, comm_lost ? error_register_for(fw::emcy::kHeartbeatError) : 0u);
+    send_emcy(emu, fw::emcy::kNoError);
+  }
+
+  // The controlword 6040h was written (SDO, or an RPDO acting now / at SYNC).
+  void on_controlword(DriveEmulator& emu) noexcept {
+    const auto cw = static_cast<std::uint16_t>(u(s_cw));
+    const bool rising_reset =
+        (cw & fw::cw::kFaultReset) != 0 && (prev_cw & fw::cw::kFaultReset) == 0;
+    prev_cw = cw;
+    using C = fw::Command;
+    switch (state) {
+      case Cia402State::kFault:
+        if (rising_reset) fault_reset(emu);  // 15, on the 0 -> 1 edge of bit 7 only
+        return;
+      case Cia402State::kNotReadyToSwitchOn:
+      case Cia402State::kFaultReactionActive:
+        return;  // the drive moves on its own
+      default:
+        break;
+    }
+    const C c = fw::decode_command(cw);
+    switch (state) {
+      case Cia402State::kSwitchOnDisabled:
+        // 2; refused while the STO circuit (e-stop input) is open.
+        if (c == C::kShutdown && !estop_input()) set_state(emu, Cia402State::kReadyToSwitchOn, 2);
+        break;
+      case Cia402State::kReadyToSwitchOn:
+        if (c == C::kSwitchOn) set_state(emu, Cia402State::kSwitchedOn, 3);
+        if (c == C::kDisableVoltage || c == C::kQuickStop)
+          set_state(emu, Cia402State::kSwitchOnDisabled, 7);
+        break;
+      case Cia402State::kSwitchedOn:
+        if (c == C::kEnableOperation) set_state(emu, Cia402State::kOperationEnabled, 4);
+        if (c == C::kShutdown) set_state(emu, Cia402State::kReadyToSwitchOn, 6);
+        if (c == C::kDisableVoltage || c == C::kQuickStop)
+          set_state(emu, Cia402State::kSwitchOnDisabled, 10);
+        break;
+      case Cia402State::kOperationEnabled:
+        if (c == C::kSwitchOn) set_state(emu, Cia402State::kSwitchedOn, 5);  // disable operation
+        if (c == C::kShutdown) set_state(emu, Cia402State::kReadyToSwitchOn, 8);
+        if (c == C::kDisableVoltage) set_state(emu, Cia402State::kSwitchOnDisabled, 9);
+        if (c == C::kQuickStop) enter_quick_stop(emu);
+        break;
+      case Cia402State::kQuickStopActive:
+        if (c == C::kDisableVoltage) set_state(emu, Cia402State::kSwitchOnDisabled, 12);
+        // 16 only where 605Ah keeps the drive in Quick stop active (5..8).
+        if (c == C::kEnableOperation &&
+            i(s_qs) >= static_cast<std::int16_t>(fw::QuickStopOption::kSlowDownRampStay))
+          set_state(emu, Cia402State::kOperationEnabled, 16);
+        break;
+      default:
+        break;
+    }
+  }
+
+  // 6007h abort connection option (CiA 402-2): heartbeat loss, RPDO deadline, NMT events.
+  void abort_connection(DriveEmulator& emu, std::uint16_t emcy_code) noexcept {
+    switch (static_cast<fw::AbortConnectionOption>(i(s_abort))) {
+      case fw::AbortConnectionOption::kNoAction:
+        break;
+      case fw::AbortConnectionOption::kFaultSignal:
+        enter_fault(emu, emcy_code);
+        break;
+      case fw::AbortConnectionOption::kDisableVoltage:
+        disable_voltage(emu);
+        break;
+      case fw::AbortConnectionOption::kQuickStop:
+        if (state == Cia402State::kOperationEnabled)
+          enter_quick_stop(emu);
+        else if (state == Cia402State::kReadyToSwitchOn || state == Cia402State::kSwitchedOn)
+          disable_voltage(emu);
+        break;
+    }
+  }
+
+  // ---- dictionary writes and their effects ----
+  void after_write(DriveEmulator& emu, int slot, std::uint64_t now) noexcept {
+    const OdEntry& e = od[static_cast<std::size_t>(slot)].entry;
+    if (slot == s_cw) {
+      on_controlword(emu);
+    } else if (slot == s_mode) {
+      set(s_mode_disp, u(s_mode));
+      set(s_sw, statusword(estop_input()));
+    } else if (slot == s_hb_prod) {
+      next_hb_ns = now + static_cast<std::uint64_t>(u(s_hb_prod)) * 1'000'000u;
+    } else if (e.index == fw::od::kConsumerHeartbeatCount.index) {
+      hb_armed.fill(false);
+      hb_lost.fill(false);
+    } else if (is_pdo_parameter(e.index)) {
+      for (std::uint8_t n = 1; n <= kEmulatedPdos; ++n) {
+        rebuild(PdoDirection::kRpdo, n);
+        rebuild(PdoDirection::kTpdo, n);
+      }
+    }
+  }
+
+  // ---- live values (sampled at SYNC and before an SDO upload) ----
+  void refresh(const DriveEmulator& emu) noexcept {
+    const PlantOutput& out = emu.plant_.output();
+    const std::int64_t counts =
+        out.counts[static_cast<std::size_t>(index)] + cfg.zero_offset + encoder_offset;
+    set(s_pos, static_cast<std::uint32_t>(counts));  // a 32-bit counter wraps
+    const double cpr = static_cast<double>(cfg.counts_per_revolution);
+    const double vel = out.q_dot.size() > index ? out.q_dot[index] * cpr / fw::kTwoPi : 0.0;
+    set(s_vel, static_cast<std::uint32_t>(
+                   fw::detail::round_saturate(vel, std::numeric_limits<std::int32_t>::min(),
+                                              std::numeric_limits<std::int32_t>::max())));
+    const double rated = fw::rated_torque_nm(u(s_rated));
+    const double applied = out.tau_applied.size() > index ? out.tau_applied[index] : 0.0;
+    set(s_torque, static_cast<std::uint16_t>(fw::nm_to_per_mille(applied, rated)));
+    set(s_sw, statusword(estop_input()));
+  }
+
+  // ---- NMT ----
+  void reset_od(std::uint16_t from, std::uint16_t to) noexcept {
+    for (std::size_t k = 0; k < od_count; ++k)
+      if (od[k].entry.index >= from && od[k].entry.index <= to) od[k].value = od[k].initial;
+  }
+  void reset_communication_state(std::uint64_t now) noexcept {
+    for (std::uint8_t n = 1; n <= kEmulatedPdos; ++n) {
+      rebuild(PdoDirection::kRpdo, n);
+      rebuild(PdoDirection::kTpdo, n);
+    }
+    sdo = SdoState::kIdle;
+    hb_armed.fill(false);
+    hb_lost.fill(false);
+    wd_armed = false;
+    wd_missed = 0;
+    wd_tripped = false;
+    torque_rx_since_sync = false;
+    next_hb_ns = now + static_cast<std::uint64_t>(u(s_hb_prod)) * 1'000'000u;
+  }
+  // Power-on or reset node: the whole dictionary and the CiA 402 state machine restart.
+  void reset_application(DriveEmulator& emu, std::uint64_t now) noexcept {
+    reset_od(0x0000, 0xFFFF);
+    set(s_din, hw_inputs);
+    prev_cw = 0;
+    set_state(emu, Cia402State::kNotReadyToSwitchOn, 0);
+    set_state(emu, Cia402State::kSwitchOnDisabled, 1);
+    reset_communication_state(now);
+  }
+  void boot_up(DriveEmulator& emu, std::uint64_t now) noexcept {
+    boot_pending = false;
+    if (refuse_boot) {
+      nmt = EmulatedNmt::kInitialisation;  // stays silent
+      return;
+    }
+    nmt = EmulatedNmt::kPreOperational;
+    send(emu, fw::encode_heartbeat(node, fw::NmtState::kBootUp));
+    next_hb_ns = now + static_cast<std::uint64_t>(u(s_hb_prod)) * 1'000'000u;
+  }
+  void leave_operational(DriveEmulator& emu) noexcept {
+    if (nmt == EmulatedNmt::kOperational && state == Cia402State::kOperationEnabled)
+      abort_connection(emu, fw::emcy::kCommunication);
+    wd_armed = false;
+    wd_missed = 0;
+    for (Pdo& p : rpdo) {
+      p.pending = false;
+      p.deadline_armed = false;
+    }
+  }
+  void on_nmt(DriveEmulator& emu, fw::NmtCommand c, std::uint64_t now) noexcept {
+    if (nmt == EmulatedNmt::kInitialisation) return;
+    switch (c) {
+      case fw::NmtCommand::kStart:
+        nmt = EmulatedNmt::kOperational;
+        break;
+      case fw::NmtCommand::kStop:
+        leave_operational(emu);
+        nmt = EmulatedNmt::kStopped;
+        break;
+      case fw::NmtCommand::kEnterPreOperational:
+        leave_operational(emu);
+        nmt = EmulatedNmt::kPreOperational;
+        break;
+      case fw::NmtCommand::kResetNode:
+        reset_application(emu, now);
+        boot_up(emu, now);
+        break;
+      case fw::NmtCommand::kResetCommunication:
+        leave_operational(emu);
+        reset_od(0x1000, 0x1FFF);
+        reset_communication_state(now);
+        boot_up(emu, now);
+        break;
+    }
+  }
+
+  // ---- SDO server (CiA 301 7.2.4) ----
+  std::uint32_t length_abort(std::size_t got, std::size_t want) const noexcept {
+    return abort_value(got > want ? SdoAbortCode::kLengthTooHigh : SdoAbortCode::kLengthTooLow);
+  }
+  // A download's value, checked and stored; kNoAbort on success.
+  std::uint32_t download(DriveEmulator& emu, int slot, std::uint32_t v,
+                         std::uint64_t now) noexcept {
+    v &= mask_of(od[static_cast<std::size_t>(slot)].entry);
+    if (const std::uint32_t a = check_write(slot, v); a != kNoAbort) return a;
+    set(slot, v);
+    after_write(emu, slot, now);
+    return kNoAbort;
+  }
+  // Finds (index, sub) for an initiate; sends the abort and returns -1 when it is missing.
+  int sdo_lookup(DriveEmulator& emu, const fw::SdoMessage& m) noexcept {
+    const int slot = find(m.index, m.subindex);
+    if (slot < 0)
+      send_sdo_abort(emu, m.index, m.subindex,
+                     abort_value(has_index(m.index) ? SdoAbortCode::kSubindexDoesNotExist
+                                                    : SdoAbortCode::kObjectDoesNotExist));
+    return slot;
+  }
+
+  void on_sdo(DriveEmulator& emu, const fw::CanFrame& frame, std::uint64_t now) noexcept {
+    ++counters.sdo_requests;
+    const fw::Result<fw::SdoMessage> r = fw::decode_sdo_request(frame);
+    if (!r) {
+      if (r.error() == fw::Error::kBadCommandSpecifier)
+        send_sdo_abort(emu, fw::get_u16_le(&frame.data[1]), frame.data[3],
+                       abort_value(SdoAbortCode::kBadCommandSpecifier));
+      return;  // a wrong DLC is not an SDO request at all: ignored
+    }
+    const fw::SdoMessage& m = *r;
+    switch (m.type) {
+      case fw::SdoType::kAbort:
+        sdo = SdoState::kIdle;
+        return;
+      case fw::SdoType::kDownloadInitiate: {
+        sdo = SdoState::kIdle;
+        const int slot = sdo_lookup(emu, m);
+        if (slot < 0) return;
+        const OdEntry& e = od[static_cast<std::size_t>(slot)].entry;
+        if (e.access == fw::Access::kRo || e.access == fw::Access::kConst)
+          return send_sdo_abort(emu, m.index, m.subindex, abort_value(SdoAbortCode::kReadOnly));
+        if (m.expedited) {
+          if (m.size_indicated && m.data_len != e.size())
+            return send_sdo_abort(emu, m.index, m.subindex, length_abort(m.data_len, e.size()));
+          const std::uint32_t a =
+              download(emu, slot, fw::get_uint_le(m.data.data(), e.size()), now);
+          if (a != kNoAbort) return send_sdo_abort(emu, m.index, m.subindex, a);
+          send(emu, fw::sdo_download_initiate_response(node, m.index, m.subindex));
+          return;
+        }
+        if (m.size_indicated && m.size != e.size())
+          return send_sdo_abort(emu, m.index, m.subindex, length_abort(m.size, e.size()));
+        receiver.begin(m.size_indicated ? m.size : 0);
+        sdo = SdoState::kDownload;
+        sdo_slot = slot;
+        send(emu, fw::sdo_download_initiate_response(node, m.index, m.subindex));
+        return;
+      }
+      case fw::SdoType::kDownloadSegment: {
+        if (sdo != SdoState::kDownload)
+          return send_sdo_abort(emu, 0, 0, abort_value(SdoAbortCode::kBadCommandSpecifier));
+        const OdEntry& e = od[static_cast<std::size_t>(sdo_slot)].entry;
+        switch (receiver.accept(m)) {
+          case fw::Error::kNone:
+            break;
+          case fw::Error::kToggleMismatch:
+            return send_sdo_abort(emu, e.index, e.subindex,
+                                  abort_value(SdoAbortCode::kToggleNotAlternated));
+          case fw::Error::kTooLong:
+            return send_sdo_abort(emu, e.index, e.subindex,
+                                  abort_value(SdoAbortCode::kLengthTooHigh));
+          case fw::Error::kSizeMismatch:
+            return send_sdo_abort(emu, e.index, e.subindex,
+                                  abort_value(SdoAbortCode::kLengthTooLow));
+          default:
+            return send_sdo_abort(emu, e.index, e.subindex,
+                                  abort_value(SdoAbortCode::kBadCommandSpecifier));
+        }
+        if (receiver.done()) {
+          sdo = SdoState::kIdle;
+          const auto bytes = receiver.bytes();
+          if (bytes.size() != e.size())
+            return send_sdo_abort(emu, e.index, e.subindex, length_abort(bytes.size(), e.size()));
+          const std::uint32_t a =
+              download(emu, sdo_slot, fw::get_uint_le(bytes.data(), bytes.size()), now);
+          if (a != kNoAbort) return send_sdo_abort(emu, e.index, e.subindex, a);
+        }
+        send(emu, fw::sdo_download_segment_response(node, m.toggle));
+        return;
+      }
+      case fw::SdoType::kUploadInitiate: {
+        sdo = SdoState::kIdle;
+        const int slot = sdo_lookup(emu, m);
+        if (slot < 0) return;
+        const OdEntry& e = od[static_cast<std::size_t>(slot)].entry;
+        if (e.access == fw::Access::kWo)
+          return send_sdo_abort(emu, m.index, m.subindex, abort_value(SdoAbortCode::kWriteOnly));
+        refresh(emu);
+        const std::uint32_t v = u(slot);
+        if (!emu.config_.segmented_upload) {
+          send(emu, fw::sdo_upload_value_response(node, e, v));
+          return;
+        }
+        fw::put_u32_le(sdo_tx.data(), v);
+        sender.begin(std::span<const std::uint8_t>(sdo_tx.data(), e.size()));
+        sdo = SdoState::kUpload;
+        sdo_slot = slot;
+        send(emu, fw::sdo_upload_initiate_response(node, m.index, m.subindex, e.size()));
+        return;
+      }
+      case fw::SdoType::kUploadSegment: {
+        if (sdo != SdoState::kUpload)
+          return send_sdo_abort(emu, 0, 0, abort_value(SdoAbortCode::kBadCommandSpecifier));
+        const OdEntry& e = od[static_cast<std::size_t>(sdo_slot)].entry;
+        if (m.toggle != sender.next_toggle())
+          return send_sdo_abort(emu, e.index, e.subindex,
+                                abort_value(SdoAbortCode::kToggleNotAlternated));
+        const fw::SdoSegmentSender::Segment s = sender.next();
+        if (s.last) sdo = SdoState::kIdle;
+        send(emu, fw::sdo_upload_segment_response(node, s.toggle, s.bytes, s.last));
+        return;
+      }
+    }
+  }
+
+  // ---- PDO traffic ----
+  void write_mapped(DriveEmulator& emu, const Pdo& p, const std::uint8_t* data,
+                    std::uint64_t now) noexcept {
+    std::size_t off = 0;
+    for (std::uint8_t k = 0; k < p.count; ++k) {
+      const MapRef& m = p.map[k];
+      if (m.slot >= 0) {
+        set(m.slot, fw::get_uint_le(data + off, m.bytes));
+        after_write(emu, m.slot, now);
+      }
+      off += m.bytes;
+    }
+  }
+  // True when the frame was one of this drive's RPDOs.
+  bool on_rpdo(DriveEmulator& emu, const fw::CanFrame& frame, std::uint64_t now) noexcept {
+    bool mine = false;
+    for (Pdo& p : rpdo) {
+      if (!p.valid || p.count == 0 || p.cob != frame.id) continue;
+      mine = true;
+      if (nmt != EmulatedNmt::kOperational) continue;  // PDOs only in Operational
+      if (frame.dlc < p.bytes) {
+        ++counters.rpdo_length_errors;
+        send_emcy(emu, fw::emcy::kPdoLengthError);  // 8210h, the data is not used
+        continue;
+      }
+      ++counters.rpdos;
+      p.last_rx_ns = now;
+      p.deadline_armed = true;
+      if (p.maps_torque) {
+        torque_rx_since_sync = true;
+        wd_armed = true;
+      }
+      if (p.type <= 240) {  // synchronous: acted upon at the next SYNC (CiA 301 7.2.2.2)
+        p.staged = frame.data;
+        p.pending = true;
+      } else {
+        write_mapped(emu, p, frame.data.data(), now);
+      }
+    }
+    return mine;
+  }
+  void send_tpdo(DriveEmulator& emu, Pdo& p, const std::array<std::uint8_t, 8>& data) noexcept {
+    p.last = data;
+    p.sent_once = true;
+    if (drop_tpdos > 0) {
+      if (drop_tpdos != DriveEmulator::kForever) --drop_tpdos;
+      ++counters.tpdos_dropped;
+      return;
+    }
+    fw::CanFrame f;
+    f.id = p.cob;
+    f.dlc = p.bytes;
+    f.data = data;
+    send(emu, f);
+    ++counters.tpdos_sent;
+  }
+  std::array<std::uint8_t, 8> tpdo_data(const Pdo& p) const noexcept {
+    std::array<std::uint8_t, 8> data{};
+    std::size_t off = 0;
+    for (std::uint8_t k = 0; k < p.count; ++k) {
+      const MapRef& m = p.map[k];
+      std::array<std::uint8_t, 4> b{};
+      fw::put_u32_le(b.data(), u(m.slot));
+      for (std::uint8_t j = 0; j < m.bytes && off + j < data.size(); ++j) data[off + j] = b[j];
+      off += m.bytes;
+    }
+    return data;
+  }
+
+  // ---- SYNC (see the timing in the header) ----
+  void on_sync(DriveEmulator& emu, std::uint64_t now, bool real) noexcept {
+    ++counters.syncs;
+    if (nmt == EmulatedNmt::kInitialisation) {
+      torque_nm = 0.0;
+      return;
+    }
+    refresh(emu);
+    if (nmt == EmulatedNmt::kOperational) {
+      if (real && !silent) {
+        for (Pdo& p : tpdo) {
+          if (!p.valid || p.count == 0) continue;
+          const std::array<std::uint8_t, 8> data = tpdo_data(p);
+          if (p.type >= 1 && p.type <= 240) {
+            if (++p.sync_count >= p.type) {
+              p.sync_count = 0;
+              send_tpdo(emu, p, data);
+            }
+          } else if (!p.sent_once || data != p.last) {
+            send_tpdo(emu, p, data);
+          }
+        }
+      }
+      for (Pdo& p : rpdo) {
+        if (!p.pending) continue;
+        p.pending = false;
+        write_mapped(emu, p, p.staged.data(), now);
+      }
+      if (wd_armed && emu.config_.rpdo_watchdog_cycles > 0) {
+        if (torque_rx_since_sync) {
+          wd_missed = 0;
+          wd_tripped = false;
+        } else if (++wd_missed >= emu.config_.rpdo_watchdog_cycles && !wd_tripped) {
+          wd_tripped = true;
+          ++counters.watchdog_trips;
+          if (state == Cia402State::kOperationEnabled) enter_fault(emu, fw::emcy::kRpdoTimeout);
+        }
+      }
+      torque_rx_since_sync = false;
+    }
+    if (state == Cia402State::kQuickStopActive && qs_to_disabled)
+      set_state(emu, Cia402State::kSwitchOnDisabled, 12);  // the quick stop has "stopped"
+    // Target torque -> N m, only in Operation enabled with mode 10 (CiA 402-2 CST).
+    double tau = 0.0;
+    limit_active = false;
+    if (state == Cia402State::kOperationEnabled && mode_is_cst() && !estop_input() && !wd_tripped) {
+      const std::int32_t target = i(s_tt);
+      const auto max = static_cast<std::int32_t>(u(s_max));
+      const std::int32_t clipped = std::clamp(target, -max, max);
+      limit_active = clipped != target;
+      tau =
+          fw::per_mille_to_nm(static_cast<std::int16_t>(clipped), fw::rated_torque_nm(u(s_rated)));
+    }
+    torque_nm = tau;
+    emu.torque_[index] = tau;
+    set(s_sw, statusword(estop_input()));
+  }
+
+  // ---- timers ----
+  void on_time(DriveEmulator& emu, std::uint64_t now) noexcept {
+    if (boot_pending && !refuse_boot) {
+      reset_application(emu, now);
+      boot_up(emu, now);
+    }
+    if (nmt == EmulatedNmt::kInitialisation) return;
+    // Heartbeat producer 1017h.
+    const std::uint64_t hb_ns = static_cast<std::uint64_t>(u(s_hb_prod)) * 1'000'000u;
+    if (hb_ns != 0 && now >= next_hb_ns) {
+      fw::NmtState s = fw::NmtState::kPreOperational;
+      if (nmt == EmulatedNmt::kOperational) s = fw::NmtState::kOperational;
+      if (nmt == EmulatedNmt::kStopped) s = fw::NmtState::kStopped;
+      if (!silent) {
+        send(emu, fw::encode_heartbeat(node, s));
+        ++counters.heartbeats_sent;
+      }
+      next_hb_ns += hb_ns;
+      if (next_hb_ns <= now) next_hb_ns = now + hb_ns;
+    }
+    // Heartbeat consumer 1016h: a silence of >= the consumer time is a heartbeat event.
+    for (std::size_t c = 0; c < kEmulatedConsumerHeartbeats; ++c) {
+      const std::uint64_t t_ns =
+          static_cast<std::uint64_t>(fw::consumer_heartbeat_time_ms(u(s_hb_cons[c]))) * 1'000'000u;
+      if (t_ns == 0 || !hb_armed[c] || hb_lost[c] || now - hb_last_ns[c] < t_ns) continue;
+      hb_lost[c] = true;
+      ++counters.heartbeat_losses;
+      set(s_err_reg, u(s_err_reg) | error_register_for(fw::emcy::kHeartbeatError));
+      if (static_cast<fw::AbortConnectionOption>(i(s_abort)) !=
+          fw::AbortConnectionOption::kFaultSignal)
+        send_emcy(emu, fw::emcy::kHeartbeatError);
+      abort_connection(emu, fw::emcy::kHeartbeatError);
+    }
+    if (nmt != EmulatedNmt::kOperational) return;
+    // RPDO deadline monitoring: 1400h sub5 event timer (CiA 301 7.5.2.35).
+    for (Pdo& p : rpdo) {
+      if (!p.valid || p.event_ms == 0 || !p.deadline_armed) continue;
+      if (now - p.last_rx_ns < static_cast<std::uint64_t>(p.event_ms) * 1'000'000u) continue;
+      p.deadline_armed = false;
+      ++counters.deadline_trips;
+      set(s_err_reg, u(s_err_reg) | error_register_for(fw::emcy::kRpdoTimeout));
+      if (static_cast<fw::AbortConnectionOption>(i(s_abort)) !=
+          fw::AbortConnectionOption::kFaultSignal)
+        send_emcy(emu, fw::emcy::kRpdoTimeout);
+      abort_connection(emu, fw::emcy::kRpdoTimeout);
+    }
+    // Event-driven TPDOs with an event timer.
+    for (Pdo& p : tpdo) {
+      if (!p.valid || p.count == 0 || p.event_ms == 0 || (p.type >= 1 && p.type <= 240)) continue;
+      if (now < p.next_event_ns) continue;
+      refresh(emu);
+      send_tpdo(emu, p, tpdo_data(p));
+      p.next_event_ns = now + static_cast<std::uint64_t>(p.event_ms) * 1'000'000u;
+    }
+  }
+
+  void on_heartbeat(DriveEmulator& emu, const fw::Heartbeat& hb, std::uint64_t now) noexcept {
+    for (std::size_t c = 0; c < kEmulatedConsumerHeartbeats; ++c) {
+      const std::uint32_t v = u(s_hb_cons[c]);
+      if (fw::consumer_heartbeat_time_ms(v) == 0 || fw::consumer_heartbeat_node(v) != hb.node)
+        continue;
+      hb_last_ns[c] = now;
+      hb_armed[c] = true;  // monitoring starts with the first heartbeat (CiA 301)
+      if (hb_lost[c]) {
+        hb_lost[c] = false;
+        if (state != Cia402State::kFault) {
+          set(s_err_reg, 0);
+          send_emcy(emu, fw::emcy::kNoError);  // the error condition has gone
+        }
+      }
+    }
+  }
+};
+
+// ---- DriveEmulator ---------------------------------------------------------------------
+
+DriveEmulator::DriveEmulator(drivers::CanBus& bus, Plant& plant, const DriveEmulatorConfig& config)
+    : bus_(bus), plant_(plant), config_(config) {
+  config_.validate(plant.size());
+  n_ = plant.size();
+  torque_ = model::JointVector::Zero(n_);
+  for (int k = 0; k < n_; ++k) {
+    drives_[static_cast<std::size_t>(k)] = std::make_unique<Drive>();
+    drives_[static_cast<std::size_t>(k)]->build(config_, k);
+  }
+}
+
+DriveEmulator::~DriveEmulator() = default;
+
+double DriveEmulator::period_s() const noexcept {
+  // 1006h (us) as the master wrote it on the first drive, else the configured period.
+  const Drive& d = *drives_[0];
+  const std::uint32_t us = d.u(d.s_period);
+  return us != 0 ? static_cast<double>(us) * 1e-6
+                 : static_cast<double>(config_.sync_period_ns) * 1e-9;
+}
+
+void DriveEmulator::command_plant() noexcept { plant_.command(torque_); }
+
+void DriveEmulator::sync(std::uint64_t now_ns, bool real) noexcept {
+  if (plant_started_) plant_.advance(period_s());  // t_{k-1} -> t_k with the latched torque
+  plant_started_ = true;
+  last_advance_ns_ = now_ns;
+  if (real) {
+    ++syncs_;
+    last_real_sync_ns_ = now_ns;
+  } else {
+    ++virtual_syncs_;
+  }
+  for (int k = 0; k < n_; ++k) drives_[static_cast<std::size_t>(k)]->on_sync(*this, now_ns, real);
+  command_plant();  // acts from t_k to t_{k+1}
+}
+
+std::size_t DriveEmulator::poll(std::uint64_t now_ns) noexcept {
+  std::size_t received = 0;
+  fw::CanFrame frame;
+  // Bounded: a flood cannot keep the caller here forever.
+  while (received < 4096 && bus_.receive(frame) == drivers::BusStatus::kOk) {
+    on_frame(frame, now_ns);
+    ++received;
+  }
+  on_time(now_ns);
+  return received;
+}
+
+void DriveEmulator::on_frame(const fw::CanFrame& frame, std::uint64_t now_ns) noexcept {
+  if (!powered_) on_time(now_ns);  // power on first: a frame never reaches an unbooted dictionary
+  last_frame_ns_ = now_ns;
+  if (frame.extended || frame.rtr) {
+    ++unhandled_frames_;
+    return;
+  }
+  if (frame.id == fw::kNmtCobId) {
+    const fw::Result<fw::NmtMessage> m = fw::decode_nmt(frame);
+    if (!m) {
+      ++unhandled_frames_;
+      return;
+    }
+    for (int k = 0; k < n_; ++k) {
+      Drive& d = *drives_[static_cast<std::size_t>(k)];
+      if (!d.silent && fw::addressed_to(*m, d.node)) d.on_nmt(*this, m->command, now_ns);
+    }
+    return;
+  }
+  const Drive& first = *drives_[0];
+  if (frame.id == (first.u(first.s_sync) & fw::kMaxStandardId)) {
+    if (!fw::decode_sync(frame)) {
+      ++unhandled_frames_;
+      return;
+    }
+    free_running_ = false;
+    sync(now_ns, true);
+    return;
+  }
+  bool handled = false;
+  const fw::Result<fw::CobIdInfo> info = fw::classify(frame);
+  for (int k = 0; k < n_; ++k) {
+    Drive& d = *drives_[static_cast<std::size_t>(k)];
+    if (d.silent || d.nmt == EmulatedNmt::kInitialisation) continue;
+    if (info && info->function == fw::Function::kSdoRx && info->node == d.node) {
+      handled = true;
+      if (d.nmt != EmulatedNmt::kStopped) d.on_sdo(*this, frame, now_ns);
+      continue;
+    }
+    if (info && info->function == fw::Function::kHeartbeat) {
+      const fw::Result<fw::Heartbeat> hb = fw::decode_heartbeat(frame);
+      if (hb) {
+        d.on_heartbeat(*this, *hb, now_ns);
+        handled = true;
+      }
+      continue;
+    }
+    handled = d.on_rpdo(*this, frame, now_ns) || handled;
+  }
+  if (!handled) ++unhandled_frames_;
+}
+
+void DriveEmulator::on_time(std::uint64_t now_ns) noexcept {
+  if (!powered_) {
+    powered_ = true;
+    for (int k = 0; k < n_; ++k) drives_[static_cast<std::size_t>(k)]->boot_pending = true;
+  }
+  for (int k = 0; k < n_; ++k) drives_[static_cast<std::size_t>(k)]->on_time(*this, now_ns);
+  // Free run of the plant when SYNCs have stopped (a dead master).
+  if (!plant_started_ || config_.free_run_after_ns == 0) return;
+  const auto p = static_cast<std::uint64_t>(std::llround(period_s() * 1e9));
+  if (p == 0) return;
+  if (!free_running_ && now_ns - last_advance_ns_ >= config_.free_run_after_ns)
+    free_running_ = true;
+  for (int guard = 0; free_running_ && now_ns - last_advance_ns_ >= p && guard < 100'000; ++guard)
+    sync(last_advance_ns_ + p, false);
+}
+
+void DriveEmulator::press_estop(bool pressed) noexcept {
+  estop_ = pressed;
+  for (int k = 0; k < n_; ++k) set_digital_inputs(k, fw::od::kDigitalInputEstopMask, pressed);
+}
+
+void DriveEmulator::set_digital_inputs(int drive, std::uint32_t mask, bool on) noexcept {
+  if (drive < 0 || drive >= n_) return;
+  Drive& d = *drives_[static_cast<std::size_t>(drive)];
+  d.hw_inputs = on ? (d.hw_inputs | mask) : (d.hw_inputs & ~mask);
+  d.set(d.s_din, d.hw_inputs);
+  if (d.estop_input()) {
+    // STO: the power stage is off whatever the controlword says.
+    if (d.state == Cia402State::kReadyToSwitchOn || d.state == Cia402State::kSwitchedOn ||
+        d.state == Cia402State::kOperationEnabled || d.state == Cia402State::kQuickStopActive)
+      d.disable_voltage(*this);
+  }
+  d.set(d.s_sw, d.statusword(d.estop_input()));
+}
+
+void DriveEmulator::inject_fault(int drive, std::uint16_t emcy_code) noexcept {
+  if (drive < 0 || drive >= n_) return;
+  drives_[static_cast<std::size_t>(drive)]->enter_fault(*this, emcy_code);
+}
+
+void DriveEmulator::set_silent(int drive, bool silent) noexcept {
+  if (drive >= 0 && drive < n_) drives_[static_cast<std::size_t>(drive)]->silent = silent;
+}
+
+void DriveEmulator::set_refuse_boot(int drive, bool refuse) noexcept {
+  if (drive < 0 || drive >= n_) return;
+  Drive& d = *drives_[static_cast<std::size_t>(drive)];
+  d.refuse_boot = refuse;
+  if (!refuse && d.nmt == EmulatedNmt::kInitialisation && powered_) d.boot_pending = true;
+}
+
+void DriveEmulator::drop_tpdos(int drive, std::uint32_t n) noexcept {
+  if (drive >= 0 && drive < n_) drives_[static_cast<std::size_t>(drive)]->drop_tpdos = n;
+}
+
+void DriveEmulator::inject_encoder_offset(int drive, std::int32_t counts) noexcept {
+  if (drive >= 0 && drive < n_) drives_[static_cast<std::size_t>(drive)]->encoder_offset += counts;
+}
+
+EmulatedDriveStatus DriveEmulator::status(int drive) const noexcept {
+  EmulatedDriveStatus s;
+  if (drive < 0 || drive >= n_) return s;
+  const Drive& d = *drives_[static_cast<std::size_t>(drive)];
+  s.node_id = d.node;
+  s.nmt = d.nmt;
+  s.state = d.state;
+  s.last_transition = d.last_transition;
+  s.statusword = static_cast<std::uint16_t>(d.u(d.s_sw));
+  s.controlword = static_cast<std::uint16_t>(d.u(d.s_cw));
+  s.target_torque = static_cast<std::int16_t>(d.i(d.s_tt));
+  s.torque_nm = d.torque_nm;
+  s.position = d.i(d.s_pos);
+  s.error_code = static_cast<std::uint16_t>(d.u(d.s_err));
+  s.error_register = static_cast<std::uint8_t>(d.u(d.s_err_reg));
+  s.digital_inputs = d.u(d.s_din);
+  s.watchdog_missed = d.wd_missed;
+  s.heartbeat_lost = d.hb_lost[0] || d.hb_lost[1];
+  s.silent = d.silent;
+  s.counters = d.counters;
+  return s;
+}
+
+bool DriveEmulator::read_object(int drive, std::uint16_t index, std::uint8_t subindex,
+                                std::uint32_t& raw) const noexcept {
+  if (drive < 0 || drive >= n_) return false;
+  const Drive& d = *drives_[static_cast<std::size_t>(drive)];
+  const int slot = d.find(index, subindex);
+  if (slot < 0) return false;
+  raw = d.u(slot);
+  return true;
+}
+
+}  // namespace dualv::sim

@@ -1,0 +1,261 @@
+// The `can:` section: defaults, the shipped config/dualv.yaml, one test per rule (each
+// naming its key), and the bus-load refusal.
+#include "drivers/canopen_config.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "common/config_error.hpp"
+
+namespace dualv::drivers {
+namespace {
+
+CanConfig load(const std::string& yaml) { return load_can_config(YAML::Load(yaml)["can"]); }
+
+// Expects a ConfigError whose message contains `needle`.
+void expect_error(const std::string& yaml, const std::string& needle) {
+  try {
+    (void)load(yaml);
+    FAIL() << "no error for:\n" << yaml;
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos)
+        << "message: " << e.what() << "\nexpected to contain: " << needle;
+  }
+}
+
+TEST(CanConfig, DefaultsAreTheContract) {
+  const CanConfig c = default_can_config();
+  ASSERT_EQ(c.size(), 4);
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(c.drives[i].node_id, i + 1);
+  EXPECT_EQ(c.bitrate, 1'000'000u);
+  EXPECT_EQ(c.sync_period_ns, 1'000'000u);
+  EXPECT_EQ(c.rpdo_layout, fw::RpdoLayoutKind::kPerDrive);
+  EXPECT_NO_THROW(validate(c));
+}
+
+TEST(CanConfig, AbsentSectionGivesDefaults) {
+  const CanConfig c = load_can_config(YAML::Node());
+  EXPECT_EQ(c.size(), 4);
+}
+
+TEST(CanConfig, ShippedConfigLoadsAndFits) {
+  const CanConfig c = load_can_config_file(std::string(DUALV_SOURCE_DIR) + "/config/dualv.yaml");
+  EXPECT_EQ(c.size(), 4);
+  EXPECT_EQ(c.interface, "vcan0");
+  EXPECT_EQ(c.master_node_id, 127);
+  EXPECT_EQ(c.drive_heartbeat_period_ns, 50'000'000u);
+  EXPECT_EQ(c.rpdo_deadline_ns, 10'000'000u);
+  EXPECT_EQ(c.digital_inputs_refresh_ns, 100'000'000u);
+  EXPECT_EQ(c.drives[3].counts_per_revolution, 1u << 20);
+  EXPECT_DOUBLE_EQ(c.drives[3].rated_torque, 50.0);
+  EXPECT_TRUE(bus_load_report(c).fits);
+  EXPECT_NO_THROW(check_sync_period(c, 0.001));
+}
+
+TEST(CanConfig, ReadsEveryKey) {
+  const CanConfig c = load(R"(
+can:
+  interface: can1
+  bitrate: 500000
+  max_bus_load: 0.8
+  rpdo_layout: broadcast
+  controlword_refresh: 0.2
+  sync: {period: 0.002, counter_overflow: 10}
+  master: {node_id: 100, heartbeat_period: 0.02}
+  heartbeat: {drive_period: 0.03, drive_timeout: 0.1, master_timeout: 0.06}
+  rpdo_deadline: 0.005
+  timeouts: {sdo: 0.05, boot: 2.0, transition: 0.25, stale_cycles: 5}
+  options: {abort_connection: 2, quick_stop: 6, fault_reaction: 1}
+  check_drive_parameters: false
+  drives:
+    - {node_id: 5, counts_per_revolution: 4096, rated_torque: 10.0, max_torque: 12.5, zero_offset: -100}
+)");
+  EXPECT_EQ(c.interface, "can1");
+  EXPECT_EQ(c.bitrate, 500'000u);
+  EXPECT_DOUBLE_EQ(c.max_bus_load, 0.8);
+  EXPECT_EQ(c.rpdo_layout, fw::RpdoLayoutKind::kBroadcast);
+  EXPECT_EQ(c.controlword_refresh_ns, 200'000'000u);
+  EXPECT_EQ(c.sync_period_ns, 2'000'000u);
+  EXPECT_EQ(c.sync_counter_overflow, 10);
+  EXPECT_EQ(c.master_node_id, 100);
+  EXPECT_EQ(c.master_heartbeat_period_ns, 20'000'000u);
+  EXPECT_EQ(c.drive_heartbeat_period_ns, 30'000'000u);
+  EXPECT_EQ(c.drive_heartbeat_timeout_ns, 100'000'000u);
+  EXPECT_EQ(c.master_heartbeat_timeout_ns, 60'000'000u);
+  EXPECT_EQ(c.rpdo_deadline_ns, 5'000'000u);
+  EXPECT_EQ(c.sdo_timeout_ns, 50'000'000u);
+  EXPECT_EQ(c.boot_timeout_ns, 2'000'000'000u);
+  EXPECT_EQ(c.transition_timeout_ns, 250'000'000u);
+  EXPECT_EQ(c.stale_cycles, 5u);
+  EXPECT_EQ(c.abort_connection, fw::AbortConnectionOption::kDisableVoltage);
+  EXPECT_EQ(c.quick_stop, fw::QuickStopOption::kQuickStopRampStay);
+  EXPECT_EQ(c.fault_reaction, fw::FaultReactionOption::kSlowDownRamp);
+  EXPECT_FALSE(c.check_drive_parameters);
+  ASSERT_EQ(c.size(), 1);
+  EXPECT_EQ(c.drives[0].node_id, 5);
+  EXPECT_EQ(c.drives[0].counts_per_revolution, 4096u);
+  EXPECT_EQ(c.drives[0].zero_offset, -100);
+  EXPECT_DOUBLE_EQ(c.drives[0].max_torque, 12.5);
+}
+
+// ---- one test per rule ----------------------------------------------------------------
+TEST(CanConfigRules, UnknownKey) {
+  expect_error("can: {bitrat: 1000000}", "can.bitrat: unknown key");
+}
+TEST(CanConfigRules, UnknownNestedKey) {
+  expect_error("can: {sync: {periode: 0.001}}", "can.sync.periode: unknown key");
+}
+TEST(CanConfigRules, WrongType) {
+  expect_error("can: {bitrate: fast}", "can.bitrate: must be a number");
+}
+TEST(CanConfigRules, EmptyInterface) { expect_error("can: {interface: ''}", "can.interface"); }
+TEST(CanConfigRules, Bitrate) {
+  expect_error("can: {bitrate: 2000000}", "can.bitrate: must be in");
+}
+TEST(CanConfigRules, MaxBusLoad) { expect_error("can: {max_bus_load: 1.5}", "can.max_bus_load"); }
+TEST(CanConfigRules, Layout) {
+  expect_error("can: {rpdo_layout: multicast}", "can.rpdo_layout: must be per_drive or broadcast");
+}
+TEST(CanConfigRules, BroadcastAtMostFourDrives) {
+  expect_error(R"(can:
+  rpdo_layout: broadcast
+  sync: {period: 0.002}
+  drives: [{node_id: 1}, {node_id: 2}, {node_id: 3}, {node_id: 4}, {node_id: 5}])",
+               "can.rpdo_layout: broadcast carries at most 4");
+}
+TEST(CanConfigRules, SyncPeriod) {
+  expect_error("can: {sync: {period: 0.00001}}", "can.sync.period");
+}
+TEST(CanConfigRules, SyncCounter) {
+  expect_error("can: {sync: {counter_overflow: 1}}", "can.sync.counter_overflow");
+  expect_error("can: {sync: {counter_overflow: 241}}", "can.sync.counter_overflow");
+}
+TEST(CanConfigRules, MasterNodeId) {
+  expect_error("can: {master: {node_id: 128}}", "can.master.node_id");
+}
+TEST(CanConfigRules, MasterNodeIdClashesWithDrive) {
+  expect_error("can: {master: {node_id: 2}}", "can.drives[1].node_id: 2 is the master's");
+}
+TEST(CanConfigRules, WholeMilliseconds) {
+  expect_error("can: {heartbeat: {drive_period: 0.0505}}",
+               "can.heartbeat.drive_period: must be whole milliseconds");
+}
+TEST(CanConfigRules, DriveTimeoutLongerThanPeriod) {
+  expect_error("can: {heartbeat: {drive_period: 0.1, drive_timeout: 0.1}}",
+               "can.heartbeat.drive_timeout");
+}
+TEST(CanConfigRules, MasterTimeoutLongerThanMasterPeriod) {
+  expect_error("can: {master: {heartbeat_period: 0.2}}",
+               "can.heartbeat.master_timeout: must be longer");
+}
+TEST(CanConfigRules, RpdoDeadline) {
+  expect_error("can: {rpdo_deadline: 0.001}",
+               "can.rpdo_deadline: must be longer than can.sync.period");
+  expect_error("can: {rpdo_deadline: -1}", "can.rpdo_deadline: must be >= 0");
+}
+TEST(CanConfigRules, DigitalInputsRefresh) {
+  expect_error("can: {digital_inputs_refresh: 0.0001}",
+               "can.digital_inputs_refresh: must be whole milliseconds");
+  EXPECT_EQ(load("can: {digital_inputs_refresh: 0}").digital_inputs_refresh_ns, 0u);
+}
+TEST(CanConfigRules, Timeouts) {
+  expect_error("can: {timeouts: {sdo: 0}}", "can.timeouts.sdo");
+  expect_error("can: {timeouts: {boot: 0}}", "can.timeouts.boot");
+  expect_error("can: {timeouts: {transition: 0.001}}", "can.timeouts.transition");
+  expect_error("can: {timeouts: {stale_cycles: 0}}", "can.timeouts.stale_cycles");
+}
+TEST(CanConfigRules, Options) {
+  expect_error("can: {options: {abort_connection: 4}}", "can.options.abort_connection");
+  expect_error("can: {options: {quick_stop: 9}}", "can.options.quick_stop");
+  expect_error("can: {options: {fault_reaction: -1}}", "can.options.fault_reaction");
+}
+TEST(CanConfigRules, DrivesCount) {
+  expect_error("can: {drives: []}", "can.drives: must list 1..8 drives");
+}
+TEST(CanConfigRules, DriveNodeIdRequired) {
+  expect_error("can: {drives: [{rated_torque: 5}]}", "can.drives[0].node_id: missing");
+}
+TEST(CanConfigRules, DriveNodeIdRange) {
+  expect_error("can: {drives: [{node_id: 0}]}", "can.drives[0].node_id: must be in 1..127");
+}
+TEST(CanConfigRules, DuplicateNodeId) {
+  expect_error("can: {drives: [{node_id: 3}, {node_id: 3}]}",
+               "can.drives[1].node_id: 3 is also can.drives[0].node_id");
+}
+TEST(CanConfigRules, CountsPerRevolution) {
+  expect_error("can: {drives: [{node_id: 1, counts_per_revolution: 0}]}",
+               "can.drives[0].counts_per_revolution");
+}
+TEST(CanConfigRules, RatedTorque) {
+  expect_error("can: {drives: [{node_id: 1, rated_torque: 0}]}", "can.drives[0].rated_torque");
+}
+TEST(CanConfigRules, MaxTorque) {
+  expect_error("can: {drives: [{node_id: 1, max_torque: -1}]}", "can.drives[0].max_torque");
+  expect_error("can: {drives: [{node_id: 1, rated_torque: 0.001, max_torque: 100}]}",
+               "more than 65535 per mille");
+}
+TEST(CanConfigRules, EveryProblemListedAtOnce) {
+  try {
+    (void)load("can: {bitrate: 5, master: {node_id: 0}, drives: [{node_id: 1, max_torque: 0}]}");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.problems().size(), 3u) << e.what();
+  }
+}
+TEST(CanConfigRules, SyncPeriodMustEqualControlPeriod) {
+  try {
+    check_sync_period(default_can_config(), 0.002);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("can.sync.period: 0.001 s but the control period is 0.002 s"),
+        std::string::npos)
+        << e.what();
+  }
+}
+
+// ---- bus load ---------------------------------------------------------------------------
+TEST(CanBusLoad, ContractNumbers) {
+  CanConfig c = default_can_config();
+  fw::BusLoadReport r = bus_load_report(c);
+  EXPECT_EQ(r.bits_per_cycle, 895u);  // DESIGN.md: 55 + 4 * 95 + 4 * 115
+  EXPECT_NEAR(r.load, 0.895, 1e-12);
+  EXPECT_TRUE(r.fits);
+  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  EXPECT_EQ(bus_load_report(c).bits_per_cycle, 650u);  // "Beating the naive bus limit"
+  const std::string text = format_bus_load(c, bus_load_report(c));
+  EXPECT_NE(text.find("650 bits/cycle"), std::string::npos) << text;
+  EXPECT_NE(text.find("broadcast"), std::string::npos) << text;
+  EXPECT_NE(text.find("65.0 %"), std::string::npos) << text;
+}
+
+TEST(CanBusLoad, TooFastRateRefusedWithBothNumbers) {
+  CanConfig c = default_can_config();
+  c.sync_period_ns = 500'000;  // 2 kHz: 1.79 Mbit/s worst case
+  try {
+    (void)require_bus_load_fits(c);
+    FAIL();
+  } catch (const ConfigError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("2000.0 Hz needs 1790000 bit/s"), std::string::npos) << m;
+    EXPECT_NE(m.find("895 bits/cycle"), std::string::npos) << m;
+    EXPECT_NE(m.find("1000000 bit/s x 95.0 % = 950000 bit/s"), std::string::npos) << m;
+    EXPECT_NE(m.find("rpdo_layout: broadcast"), std::string::npos) << m;
+  }
+  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;  // 650 bits x 2 kHz = 1.3 Mbit/s: still no
+  EXPECT_THROW((void)require_bus_load_fits(c), ConfigError);
+  c.sync_period_ns = 1'000'000;
+  EXPECT_NO_THROW((void)require_bus_load_fits(c));
+}
+
+TEST(CanBusLoad, JustAboveTheLimit) {
+  CanConfig c = default_can_config();
+  c.max_bus_load = 0.89;  // 89.5 % needed at 1 kHz
+  EXPECT_THROW((void)require_bus_load_fits(c), ConfigError);
+  c.max_bus_load = 0.895;
+  EXPECT_NO_THROW((void)require_bus_load_fits(c));
+}
+
+}  // namespace
+}  // namespace dualv::drivers

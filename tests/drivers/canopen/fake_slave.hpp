@@ -1,0 +1,327 @@
+#pragma once
+// A small scripted CANopen CiA 402 slave for the master's unit tests (not the emulator):
+// answers NMT, SDO (expedited and segmented), SYNC (TPDO1), takes RPDOs and walks a minimal
+// CiA 402 state machine. Everything it sends is encoded with firmware_if, so no index or
+// COB-ID is written twice. Deterministic: it acts only in step(), called by the test (or by
+// StepWaiter), never on a thread; time is the test's ManualClock.
+#include <cstdint>
+#include <map>
+#include <set>
+#include <utility>
+#include <vector>
+
+#include "drivers/can/in_process_bus.hpp"
+#include "drivers/canopen/clock.hpp"
+#include "drivers/canopen/waiter.hpp"
+#include "firmware_if/firmware_if.hpp"
+
+namespace dualv::drivers::test {
+
+using Key = std::pair<std::uint16_t, std::uint8_t>;
+
+inline std::vector<std::uint8_t> le_bytes(std::uint32_t v, std::size_t n) {
+  std::vector<std::uint8_t> b(n);
+  for (std::size_t i = 0; i < n; ++i) b[i] = static_cast<std::uint8_t>(v >> (8 * i));
+  return b;
+}
+
+class FakeSlave {
+ public:
+  FakeSlave(CanBus& bus, std::uint8_t node) : bus_(bus), node_(node) {
+    set(fw::od::kDeviceType, 0x00020192);  // CiA 402 servo drive
+    set(fw::od::kSupportedDriveModes,
+        fw::supported_mode_bit(fw::ModeOfOperation::kCyclicSyncTorque));
+    set(fw::od::kRatedTorque, 50000);
+    set(fw::od::kEncoderIncrements, 1u << 20);
+    set(fw::od::kEncoderMotorRevolutions, 1);
+  }
+
+  // ---- knobs ----
+  bool boots = true;  // answers NMT reset with a boot-up message
+  bool answers_sdo = true;
+  bool answers_sync = true;     // TPDO1 after SYNC when Operational
+  bool ignores_writes = false;  // SDO write confirmed but value not stored (read-back test)
+  bool cia402_stuck = false;    // ignores controlwords (transition timeout tests)
+  bool fault_reset_works = true;
+  int ignore_nmt_starts = 0;  // the next n NMT start commands are lost
+  std::map<Key, std::uint32_t> abort_on_write;
+  std::map<Key, std::uint32_t> abort_on_read;
+  std::int32_t position = 0;
+
+  // ---- state ----
+  fw::NmtState nmt = fw::NmtState::kPreOperational;
+  fw::Cia402State cia = fw::Cia402State::kSwitchOnDisabled;
+  std::uint16_t controlword = 0;
+  std::int16_t target_torque = 0;
+  std::vector<std::int16_t> applied_torques;  // target torque at each SYNC (Operation enabled)
+  std::vector<std::uint16_t> controlwords;    // every controlword received
+  std::map<Key, std::vector<std::uint8_t>> od;
+  int syncs = 0;
+
+  void set(const fw::OdEntry& e, std::uint32_t v) {
+    od[{e.index, e.subindex}] = le_bytes(v, e.size());
+  }
+  std::uint32_t get(const fw::OdEntry& e) const {
+    auto it = od.find({e.index, e.subindex});
+    if (it == od.end()) return 0;
+    return fw::get_uint_le(it->second.data(), std::min<std::size_t>(4, it->second.size()));
+  }
+  std::uint8_t node() const { return node_; }
+  CanBus& bus() { return bus_; }
+
+  void send(const fw::Result<fw::CanFrame>& f) {
+    if (f) (void)bus_.send(*f);
+  }
+  void send_heartbeat() { send(fw::encode_heartbeat(node_, nmt)); }
+  void send_emcy(std::uint16_t code, std::uint8_t reg = 0) {
+    fw::Emcy e;
+    e.node = node_;
+    e.error_code = code;
+    e.error_register = reg;
+    send(fw::encode_emcy(e));
+  }
+  std::uint16_t statusword() const { return fw::statusword_bits(cia); }
+  // TPDO2 as the master maps it (60FDh digital inputs, 4 bytes on 280h + id).
+  void send_digital_inputs(std::uint32_t di) {
+    fw::CanFrame f;
+    f.id = fw::cob_id(fw::Function::kTpdo2, node_);
+    f.dlc = 4;
+    fw::put_u32_le(f.data.data(), di);
+    (void)bus_.send(f);
+  }
+  void send_tpdo() { send(fw::encode_tpdo1(node_, {statusword(), position})); }
+  // The drive faults on its own (e.g. over-temperature): EMCY + Fault.
+  void fault(std::uint16_t code = fw::emcy::kDeviceOverTemperature) {
+    cia = fw::Cia402State::kFault;
+    send_emcy(code, fw::error_register::kGeneric);
+  }
+
+  // The drive's heartbeat producer (1017h, as configured by the master): call with the
+  // current time; sends when due (Pre-operational, Operational, Stopped).
+  void tick(std::uint64_t now_ns) {
+    const std::uint32_t period_ms = get(fw::od::kProducerHeartbeat);
+    if (period_ms == 0 || now_ns - last_heartbeat_ns_ < period_ms * 1'000'000ull) return;
+    last_heartbeat_ns_ = now_ns;
+    send_heartbeat();
+  }
+
+  // Processes every frame received, answering as a drive would.
+  void step() {
+    fw::CanFrame f;
+    while (bus_.receive(f) == BusStatus::kOk) handle(f);
+  }
+
+ private:
+  void handle(const fw::CanFrame& f) {
+    const fw::Result<fw::CobIdInfo> info = fw::classify(f);
+    if (!info) return;
+    switch (info->function) {
+      case fw::Function::kNmt: {
+        const auto m = fw::decode_nmt(f);
+        if (!m || !fw::addressed_to(*m, node_)) return;
+        switch (m->command) {
+          case fw::NmtCommand::kResetNode:
+          case fw::NmtCommand::kResetCommunication:
+            nmt = fw::NmtState::kPreOperational;
+            cia = fw::Cia402State::kSwitchOnDisabled;
+            if (boots) send(fw::encode_heartbeat(node_, fw::NmtState::kBootUp));
+            break;
+          case fw::NmtCommand::kStart:
+            if (ignore_nmt_starts > 0) {
+              --ignore_nmt_starts;
+              break;
+            }
+            nmt = fw::NmtState::kOperational;
+            send_heartbeat();
+            break;
+          case fw::NmtCommand::kStop:
+            nmt = fw::NmtState::kStopped;
+            send_heartbeat();
+            break;
+          case fw::NmtCommand::kEnterPreOperational:
+            nmt = fw::NmtState::kPreOperational;
+            send_heartbeat();
+            break;
+        }
+        return;
+      }
+      case fw::Function::kSync:
+        if (nmt != fw::NmtState::kOperational) return;
+        ++syncs;
+        if (cia == fw::Cia402State::kOperationEnabled) applied_torques.push_back(target_torque);
+        if (answers_sync) send_tpdo();
+        return;
+      case fw::Function::kRpdo1:
+        if (info->node != node_ || nmt != fw::NmtState::kOperational) return;
+        if (f.dlc == 4) {
+          const auto c = fw::decode_rpdo1(f);
+          if (c) {
+            target_torque = c->target_torque;
+            on_controlword(c->controlword);
+          }
+        } else if (const auto cw = fw::decode_controlword_rpdo(f)) {
+          on_controlword(*cw);
+        }
+        return;
+      case fw::Function::kBroadcastRpdo: {
+        if (nmt != fw::NmtState::kOperational) return;
+        const auto t = fw::decode_broadcast_torque(f, slot);
+        if (t) target_torque = *t;
+        return;
+      }
+      case fw::Function::kSdoRx:
+        if (info->node == node_ && answers_sdo) sdo(f);
+        return;
+      default:
+        return;
+    }
+  }
+
+ public:
+  std::uint8_t slot = 0;  // broadcast layout: this drive's slot
+
+ private:
+  void on_controlword(std::uint16_t cw) {
+    const bool rising7 = (cw & fw::cw::kFaultReset) && !(controlword & fw::cw::kFaultReset);
+    controlword = cw;
+    controlwords.push_back(cw);
+    if (cia402_stuck) return;
+    if (cia == fw::Cia402State::kFault) {
+      if (rising7 && fault_reset_works) cia = fw::Cia402State::kSwitchOnDisabled;
+      return;
+    }
+    const fw::Command c = fw::decode_command(cw);
+    for (const fw::Transition& t : fw::kTransitions) {
+      if (t.from != cia || !t.command) continue;
+      const bool same = *t.command == c || (c == fw::Command::kSwitchOn &&
+                                            *t.command == fw::Command::kDisableOperation);
+      if (same && t.number != 16) {
+        cia = t.to;
+        return;
+      }
+    }
+  }
+
+  void sdo(const fw::CanFrame& f) {
+    const auto r = fw::decode_sdo_request(f);
+    if (!r) return;
+    const fw::SdoMessage& m = *r;
+    const Key k{m.index, m.subindex};
+    switch (m.type) {
+      case fw::SdoType::kDownloadInitiate:
+        if (auto it = abort_on_write.find(k); it != abort_on_write.end()) {
+          send(fw::sdo_abort(node_, fw::SdoRole::kServer, m.index, m.subindex, it->second));
+          return;
+        }
+        if (m.expedited) {
+          if (!ignores_writes)
+            od[k] = std::vector<std::uint8_t>(m.data.begin(), m.data.begin() + m.data_len);
+        } else {
+          seg_key_ = k;
+          seg_buf_.assign(m.size, 0);
+          rx_ = fw::SdoSegmentReceiver(seg_buf_);
+          rx_.begin(m.size);
+        }
+        send(fw::sdo_download_initiate_response(node_, m.index, m.subindex));
+        return;
+      case fw::SdoType::kDownloadSegment: {
+        if (rx_.accept(m) != fw::Error::kNone) {
+          send(fw::sdo_abort(node_, fw::SdoRole::kServer, seg_key_.first, seg_key_.second,
+                             fw::SdoAbortCode::kToggleNotAlternated));
+          return;
+        }
+        send(fw::sdo_download_segment_response(node_, m.toggle));
+        if (rx_.done())
+          od[seg_key_] = std::vector<std::uint8_t>(rx_.bytes().begin(), rx_.bytes().end());
+        return;
+      }
+      case fw::SdoType::kUploadInitiate: {
+        if (auto it = abort_on_read.find(k); it != abort_on_read.end()) {
+          send(fw::sdo_abort(node_, fw::SdoRole::kServer, m.index, m.subindex, it->second));
+          return;
+        }
+        auto it = od.find(k);
+        if (it == od.end()) {
+          send(fw::sdo_abort(node_, fw::SdoRole::kServer, m.index, m.subindex,
+                             fw::SdoAbortCode::kObjectDoesNotExist));
+          return;
+        }
+        if (it->second.size() <= 4) {
+          send(fw::sdo_upload_expedited_response(node_, m.index, m.subindex, it->second));
+        } else {
+          up_buf_ = it->second;
+          tx_.begin(up_buf_);
+          send(fw::sdo_upload_initiate_response(node_, m.index, m.subindex,
+                                                static_cast<std::uint32_t>(up_buf_.size())));
+        }
+        return;
+      }
+      case fw::SdoType::kUploadSegment: {
+        const auto s = tx_.next();
+        send(fw::sdo_upload_segment_response(node_, s.toggle, s.bytes, s.last));
+        return;
+      }
+      case fw::SdoType::kAbort:
+        aborts_received.push_back(m.abort_code);
+        return;
+    }
+  }
+
+ public:
+  std::vector<std::uint32_t> aborts_received;
+
+ private:
+  CanBus& bus_;
+  std::uint8_t node_;
+  std::uint64_t last_heartbeat_ns_ = 0;
+  Key seg_key_{};
+  std::vector<std::uint8_t> seg_buf_;
+  fw::SdoSegmentReceiver rx_{std::span<std::uint8_t>{}};
+  std::vector<std::uint8_t> up_buf_;
+  fw::SdoSegmentSender tx_{};
+};
+
+// The deterministic waiter: each wait runs the fake slaves once and advances the clock by
+// one step (never past the deadline), stamping the hub with the new time.
+class StepWaiter final : public canopen::Waiter {
+ public:
+  StepWaiter(canopen::ManualClock& clock, InProcessHub& hub, std::vector<FakeSlave*> slaves,
+             std::uint64_t step_ns = 1'000'000)
+      : clock_(clock), hub_(hub), slaves_(std::move(slaves)), step_ns_(step_ns) {}
+  void wait_until(std::uint64_t deadline_ns) override {
+    for (FakeSlave* s : slaves_) s->step();
+    const std::uint64_t now = clock_.now_ns();
+    if (deadline_ns > now) clock_.advance_ns(std::min(step_ns_, deadline_ns - now));
+    hub_.set_time_ns(clock_.now_ns());
+    ++waits;
+  }
+  int waits = 0;
+
+ private:
+  canopen::ManualClock& clock_;
+  InProcessHub& hub_;
+  std::vector<FakeSlave*> slaves_;
+  std::uint64_t step_ns_;
+};
+
+// Every frame seen by a passive endpoint, as "ID#DATA" (candump's compact form).
+inline std::string to_text(const fw::CanFrame& f) {
+  static const char* hex = "0123456789ABCDEF";
+  std::string s;
+  for (int shift = 8; shift >= 0; shift -= 4) s += hex[(f.id >> shift) & 0xF];
+  s += '#';
+  for (std::size_t i = 0; i < f.dlc; ++i) {
+    s += hex[f.data[i] >> 4];
+    s += hex[f.data[i] & 0xF];
+  }
+  return s;
+}
+
+inline std::vector<fw::CanFrame> drain(InProcessBus& bus) {
+  std::vector<fw::CanFrame> out;
+  fw::CanFrame f;
+  while (bus.receive(f) == BusStatus::kOk) out.push_back(f);
+  return out;
+}
+
+}  // namespace dualv::drivers::test
