@@ -24,13 +24,13 @@ TEST(ControlCycle, TenThousandCyclesAllocateNothing) {
   control::ControlCycle cycle(cfg.model, cfg.control, {cfg.period(), 2.0});
   cycle.start(io, program, cfg.trajectory.rebase);
   control::CycleRecord rec;
-  const long before = test::allocation_count();
+  const long before = dualv::test::allocation_count();
   int bad = 0;
   for (int k = 0; k < 10000; ++k) {  // 10 s: the whole program, then holding the end pose
     if (cycle.step(io, rec) != control::CycleStatus::kOk) ++bad;
     plant.advance(cfg.period());
   }
-  EXPECT_EQ(test::allocation_count() - before, 0);
+  EXPECT_EQ(dualv::test::allocation_count() - before, 0);
   EXPECT_EQ(bad, 0);
   EXPECT_EQ(cycle.phase(), control::CyclePhase::kHolding);
   EXPECT_TRUE(rec.control.tau.allFinite());

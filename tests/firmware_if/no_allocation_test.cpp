@@ -1,11 +1,11 @@
 // Every firmware_if codec runs inside the real-time cycle: none may allocate (STYLE.md).
-// The test binary replaces the global operator new with a counting one (alloc_counter.cpp)
+// The test binary replaces the global operator new with a counting one (tests/support/allocation_counter.cpp)
 // and runs each encoder and decoder between two readings of the counter.
 #include <gtest/gtest.h>
 
 #include <array>
 
-#include "alloc_counter.hpp"
+#include "tests/support/allocation_counter.hpp"
 #include "firmware_if/cia402.hpp"
 #include "firmware_if/emcy.hpp"
 #include "firmware_if/heartbeat.hpp"
@@ -18,16 +18,16 @@ namespace dualv::fw {
 namespace {
 
 TEST(NoAllocation, CounterWorks) {
-  const long before = test::allocation_count();
+  const long before = dualv::test::allocation_count();
   auto* p = new int(3);
-  EXPECT_EQ(test::allocation_count() - before, 1);
+  EXPECT_EQ(dualv::test::allocation_count() - before, 1);
   delete p;
 }
 
 TEST(NoAllocation, EveryCodec) {
   std::array<std::uint8_t, 64> buffer{};
   const std::array<std::uint8_t, 20> payload{};
-  const long before = test::allocation_count();
+  const long before = dualv::test::allocation_count();
   int ok = 0;
   for (int i = 0; i < 100; ++i) {
     ok += decode_nmt(*encode_nmt(NmtCommand::kStart, 3)).ok();
@@ -60,7 +60,7 @@ TEST(NoAllocation, EveryCodec) {
     ok += decode_statusword(0x0237).ok();
     ok += next_transition(Cia402State::kFault, Cia402State::kOperationEnabled).has_value();
   }
-  EXPECT_EQ(test::allocation_count() - before, 0);
+  EXPECT_EQ(dualv::test::allocation_count() - before, 0);
   EXPECT_EQ(ok, 100 * 18);  // 15 single calls + 3 segments (20 bytes) per iteration
 }
 

@@ -26,7 +26,7 @@
 #include <thread>
 #include <vector>
 
-#include "alloc_counter.hpp"
+#include "tests/support/allocation_counter.hpp"
 #include "drivers/can/socketcan_bus.hpp"
 
 namespace dualv::drivers {
@@ -146,7 +146,7 @@ TEST(SocketCanHil, SendReceiveAndRestartAllocateNothing) {
   const fw::CanFrame rpdo = frame(0x201, {1, 2, 3, 4});  // built here: the helper allocates
   fw::CanFrame f;
   std::size_t received = 0;
-  const long before = test::allocation_count();
+  const long before = dualv::test::allocation_count();
   for (int cycle = 0; cycle < 200; ++cycle) {
     (void)a.send(sync);
     (void)a.send(rpdo);
@@ -156,7 +156,7 @@ TEST(SocketCanHil, SendReceiveAndRestartAllocateNothing) {
     (void)a.state();
   }
   (void)b.restart();
-  const long after = test::allocation_count();
+  const long after = dualv::test::allocation_count();
   EXPECT_EQ(after, before);
   EXPECT_GT(received, 0u);
 }

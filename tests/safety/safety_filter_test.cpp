@@ -523,6 +523,22 @@ TEST(WriteGuard, SkippedOrBypassedCheckTakesTorqueOff) {
   EXPECT_EQ(io.last.request, DriveRequest::kDisable);
 }
 
+TEST(SafetyFilter, TelemetryStateCodesFollowRobotStateT) {
+  SafetyReport r;
+  EXPECT_EQ(telemetry_state(r), 0);
+  r.state = SafetyState::kOperational;
+  EXPECT_EQ(telemetry_state(r), 1);
+  r.state = SafetyState::kSs1;
+  EXPECT_EQ(telemetry_state(r), 2);
+  r.state = SafetyState::kSto;
+  r.latched = bit(Fault::kTrackingError);
+  EXPECT_EQ(telemetry_state(r), 3);
+  r.latched |= bit(Fault::kDriveLost);
+  EXPECT_EQ(telemetry_state(r), 5);
+  r.latched |= bit(Fault::kEstopInput);
+  EXPECT_EQ(telemetry_state(r), 4);
+}
+
 TEST(SafetyFilter, UpdateAllocatesNothing) {
   Bench b;
   settle(b);

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "tests/sim/allocation_counter.hpp"
+#include "tests/support/allocation_counter.hpp"
 #include "tests/sim/emulator_fixture.hpp"
 
 namespace dualv::sim {
@@ -777,7 +777,7 @@ TEST_F(EmulatorTest, FramePathAllocatesNothing) {
   fw::CanFrame rx;
   std::uint64_t t = hub->now_ns();
   long received = 0;
-  testing_alloc::start();
+  dualv::test::start_counting();
   for (int k = 0; k < 2000; ++k) {
     for (std::size_t i = 0; i < 4; ++i) master().send(rpdo[i]);
     master().send(sync);
@@ -789,7 +789,7 @@ TEST_F(EmulatorTest, FramePathAllocatesNothing) {
     t += cfg.sync_period_ns;
     while (master().receive(rx) == drivers::BusStatus::kOk) ++received;
   }
-  const long allocations = testing_alloc::stop();
+  const long allocations = dualv::test::stop_counting();
   EXPECT_EQ(allocations, 0);
   EXPECT_GT(received, 8000);
   EXPECT_EQ(emu->status(1).state, Cia402State::kFault);

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "firmware_if/firmware_if.hpp"
-#include "tests/sim/allocation_counter.hpp"
+#include "tests/support/allocation_counter.hpp"
 #include "tests/sim/sim_fixture.hpp"
 
 namespace dualv::sim {
@@ -105,7 +105,7 @@ TEST_F(Rig, StepAllocatesNothing) {
   for (std::uint8_t n = 1; n <= 4; ++n) frames[n - 1u] = *fw::encode_rpdo1(n, {0x0F, 10});
   frames[4] = *fw::encode_sync();
   fw::CanFrame rx;
-  testing_alloc::start();
+  dualv::test::start_counting();
   for (int k = 0; k < 1000; ++k) {
     for (const fw::CanFrame& f : frames) rig.master_bus().send(f);
     rig.step(kPeriod);
@@ -114,7 +114,7 @@ TEST_F(Rig, StepAllocatesNothing) {
     while (rig.monitor_bus().receive(rx) == drivers::BusStatus::kOk) {
     }
   }
-  EXPECT_EQ(testing_alloc::stop(), 0);
+  EXPECT_EQ(dualv::test::stop_counting(), 0);
 }
 
 }  // namespace

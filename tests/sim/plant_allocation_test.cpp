@@ -1,4 +1,4 @@
-// The simulator's cycle allocates nothing: operator new is counted (allocation_counter.cpp
+// The simulator's cycle allocates nothing: operator new is counted (tests/support/allocation_counter.cpp
 // replaces it for this binary) over 10,000 cycles with every realism knob on.
 #include <gtest/gtest.h>
 
@@ -6,7 +6,7 @@
 
 #include "sim/plant.hpp"
 #include "sim/sim_actuator_set.hpp"
-#include "tests/sim/allocation_counter.hpp"
+#include "tests/support/allocation_counter.hpp"
 #include "tests/sim/sim_fixture.hpp"
 
 namespace dualv::sim {
@@ -16,9 +16,9 @@ double* volatile g_sink = nullptr;  // keeps the compiler from eliding the new b
 
 TEST(PlantAllocation, CounterSeesAnAllocation) {
   // The counter itself works: otherwise the zero below would prove nothing.
-  testing_alloc::start();
+  dualv::test::start_counting();
   g_sink = new double(1.0);
-  const long n = testing_alloc::stop();
+  const long n = dualv::test::stop_counting();
   delete g_sink;
   EXPECT_EQ(n, 1);
 }
@@ -30,7 +30,7 @@ TEST(PlantAllocation, TenThousandCyclesAllocateNothing) {
   drivers::ActuatorCommand cmd;
   cmd.n = 4;
   model::JointVector tau(4);
-  testing_alloc::start();
+  dualv::test::start_counting();
   for (int k = 0; k < 10000; ++k) {
     set.read(fb);
     const double s = std::sin(0.01 * k);
@@ -41,7 +41,7 @@ TEST(PlantAllocation, TenThousandCyclesAllocateNothing) {
     tau = plant.output().tau_applied;
     plant.energy();
   }
-  const long allocations = testing_alloc::stop();
+  const long allocations = dualv::test::stop_counting();
   EXPECT_EQ(allocations, 0);
   EXPECT_EQ(plant.status(), PlantStatus::kOk);
   EXPECT_EQ(plant.output().cycle, 10000u);

@@ -4,4 +4,8 @@
 // nothing: take allocation_count() before and after, compare.
 namespace dualv::test {
 long allocation_count() noexcept;
+// Counting from a mark: start_counting(), then stop_counting() returns the allocations made
+// in between (one mark per binary at a time).
+void start_counting() noexcept;
+long stop_counting() noexcept;
 }  // namespace dualv::test

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "common/yaml_reader.hpp"
-#include "tests/control/loop/allocation_counter.hpp"
+#include "tests/support/allocation_counter.hpp"
 
 namespace dualv::control {
 namespace {
@@ -184,12 +184,12 @@ TEST(PeriodicExecutive, CycleDoesNotAllocate) {
   auto report = ex.run(
       [&](const CycleInfo& info) noexcept {
         if (info.cycle == 0) {
-          testing_alloc::start();
+          dualv::test::start_counting();
         }
         clock.advance(1000 * (info.cycle % 50));
         if (info.cycle % 100 == 99) (void)info.stats->summary();  // periodic report
         if (info.cycle == 9999) {
-          during = testing_alloc::stop();
+          during = dualv::test::stop_counting();
         }
         return CycleResult::kContinue;
       },

@@ -1,73 +1,23 @@
 // Sampling a program at run time allocates nothing: global operator new is replaced in this
-// test binary and counts calls while a window is open.
+// test binary (dualv_test_support) and the calls made while a window is open are counted.
 #include <gtest/gtest.h>
-
-#include <atomic>
-#include <cstdlib>
-#include <new>
 
 #include "control/trajectory/sequencer.hpp"
 #include "test_util.hpp"
-
-namespace {
-std::atomic<bool> g_counting{false};
-std::atomic<long> g_allocations{0};
-
-void* counted_alloc(std::size_t n) {
-  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1);
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void* counted_aligned_alloc(std::size_t n, std::align_val_t a) {
-  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1);
-  const std::size_t al = static_cast<std::size_t>(a);
-  if (void* p = std::aligned_alloc(al, (n + al - 1) / al * al)) return p;
-  throw std::bad_alloc();
-}
-}  // namespace
-
-void* operator new(std::size_t n) { return counted_alloc(n); }
-void* operator new[](std::size_t n) { return counted_alloc(n); }
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  try {
-    return counted_alloc(n);
-  } catch (...) {
-    return nullptr;
-  }
-}
-void* operator new[](std::size_t n, const std::nothrow_t&) noexcept {
-  try {
-    return counted_alloc(n);
-  } catch (...) {
-    return nullptr;
-  }
-}
-void* operator new(std::size_t n, std::align_val_t a) { return counted_aligned_alloc(n, a); }
-void* operator new[](std::size_t n, std::align_val_t a) { return counted_aligned_alloc(n, a); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+#include "tests/support/allocation_counter.hpp"
 
 namespace dualv::trajectory {
 namespace {
 
 struct CountingWindow {
-  CountingWindow() {
-    g_allocations = 0;
-    g_counting = true;
-  }
-  ~CountingWindow() { g_counting = false; }
-  long count() const { return g_allocations.load(); }
+  CountingWindow() : start(dualv::test::allocation_count()) {}
+  long count() const { return dualv::test::allocation_count() - start; }
+  long start;
 };
 
 TEST(NoAlloc, TheCounterSeesAllocations) {  // the test itself can fail
   CountingWindow w;
-  auto* v = new std::vector<int>(100);
+  std::vector<int>* volatile v = new std::vector<int>(100);  // volatile: no new/delete elision
   delete v;
   EXPECT_GE(w.count(), 2);
 }

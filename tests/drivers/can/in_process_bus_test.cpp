@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "alloc_counter.hpp"
+#include "tests/support/allocation_counter.hpp"
 
 namespace dualv::drivers {
 namespace {
@@ -319,7 +319,7 @@ TEST(InProcessBus, CyclesAllocateNothing) {
   hub.endpoint(1).drop_next(20);
   hub.endpoint(2).fail_next_sends(10);
   fw::CanFrame f;
-  const long before = test::allocation_count();
+  const long before = dualv::test::allocation_count();
   for (std::uint32_t cycle = 0; cycle < 2000; ++cycle) {
     hub.advance_ns(1'000'000);
     (void)master.send(make_frame(0x080, 0, 0));
@@ -337,7 +337,7 @@ TEST(InProcessBus, CyclesAllocateNothing) {
       hub.release_delayed();
     }
   }
-  EXPECT_EQ(test::allocation_count(), before);
+  EXPECT_EQ(dualv::test::allocation_count(), before);
   EXPECT_GT(hub.stats().delivered, 10'000u);
 }
 

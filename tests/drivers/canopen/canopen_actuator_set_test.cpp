@@ -10,7 +10,7 @@
 #include <memory>
 #include <vector>
 
-#include "alloc_counter.hpp"
+#include "tests/support/allocation_counter.hpp"
 #include "common/config_error.hpp"
 #include "fake_slave.hpp"
 
@@ -365,12 +365,12 @@ TEST_F(SetFixture, ZeroAllocationsInReadWriteOver10000Cycles) {
   long in_cycle = 0;
   for (int k = 0; k < 10000; ++k) {
     cmd.torque.fill(0.001 * (k % 100));
-    const long before = test::allocation_count();
+    const long before = dualv::test::allocation_count();
     set->read(fb);
     cmd.request = DriveRequest::kHold;
     set->write(cmd);
     (void)set->health(k % 4);
-    in_cycle += test::allocation_count() - before;
+    in_cycle += dualv::test::allocation_count() - before;
     for (auto& s : slaves) {  // the fake drives may allocate; they are not measured
       s->applied_torques.clear();
       s->controlwords.clear();
