@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The whole test suite, as CI runs it: install dependencies, build with warnings as
 # errors, run every test (unit, property, and the vcan hardware-in-the-loop tests in a
-# user-mode-linux guest), then rebuild with AddressSanitizer + UBSan and run the tests again.
+# user-mode-linux guest), build and install the Debian package and run the installed binary,
+# then rebuild with AddressSanitizer + UBSan and run the tests again.
 # Usage: scripts/test.sh            (everything)
 #        DUALV_SKIP_ASAN=1 scripts/test.sh   (skip the sanitizer pass)
 set -euo pipefail
@@ -16,9 +17,13 @@ cmake --build build/release -j"$jobs"
 echo "== tests (release) =="
 ctest --test-dir build/release --output-on-failure -j"$jobs" --timeout 900
 
+echo "== package: build the .deb, install it, run the installed dualv =="
+bash scripts/package-test.sh --jobs "$jobs"
+
 if [ "${DUALV_SKIP_ASAN:-0}" != 1 ]; then
   echo "== sanitizer build (ASan + UBSan) =="
-  cmake -S . -B build/asan -DCMAKE_BUILD_TYPE=Debug -DDUALV_SANITIZE=ON -DDUALV_WERROR=ON \
+  cmake -S . -B build/asan -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" \
+    -DDUALV_SANITIZE=ON -DDUALV_WERROR=ON \
     -DDUALV_BUILD_BENCH=OFF >/dev/null
   cmake --build build/asan -j"$jobs"
   echo "== tests (ASan + UBSan) =="

@@ -7,6 +7,7 @@
 
 #include "control/loop/control_cycle.hpp"
 #include "control/loop/periodic_executive.hpp"
+#include "safety/fault.hpp"
 #include "sim/plant.hpp"
 #include "sim/sim_actuator_set.hpp"
 
@@ -138,12 +139,15 @@ RunResult run_program(const RobotConfig& config, const trajectory::Program& prog
   result.rows.reserve(static_cast<std::size_t>(total_cycles));  // no allocation in the loop
 
   // Simulated time: the schedule jumps, the cycle work is still timed on the real clock.
+  // Only a simulation advanced by after_cycle may run on it: drives on a bus (no
+  // after_cycle) answer each SYNC in real time, so their loop is always paced by the clock.
+  const bool paced = options.realtime || !after_cycle;
   control::SimClock sim_clock;
   control::MonotonicClock mono;
   control::ExecutiveConfig exec = config.loop;
-  exec.realtime = options.realtime;
-  control::PeriodicExecutive executive(exec, options.realtime ? static_cast<control::LoopClock&>(mono)
-                                                              : static_cast<control::LoopClock&>(sim_clock),
+  exec.realtime = paced;
+  control::PeriodicExecutive executive(exec, paced ? static_cast<control::LoopClock&>(mono)
+                                                   : static_cast<control::LoopClock&>(sim_clock),
                                        &mono);
   control::CycleRecord rec;
   const bool simulated = static_cast<bool>(after_cycle);
@@ -192,7 +196,7 @@ RunResult run_program(const RobotConfig& config, const trajectory::Program& prog
   if (options.telemetry) {
     runtime::LoopStatsSample ls;
     ls.stats = report.stats;
-    ls.realtime = options.realtime;
+    ls.realtime = paced;
     ls.telemetry_dropped = static_cast<std::int64_t>(options.telemetry->dropped());
     options.telemetry->push_loop_stats(ls);
   }
@@ -200,6 +204,11 @@ RunResult run_program(const RobotConfig& config, const trajectory::Program& prog
     result.ok = false;
     result.failure = fmt::format("cycle {} (t = {:.3f} s): {}", rec.cycle, rec.t,
                                  control::to_string(rec.status));
+    std::string causes;
+    for (int f = 0; f < safety::kFaultCount; ++f)
+      if (rec.safety.latched & safety::bit(static_cast<safety::Fault>(f)))
+        causes += std::string(causes.empty() ? "" : ", ") + safety::to_string(static_cast<safety::Fault>(f));
+    if (!causes.empty()) result.failure += " (" + causes + ")";
   }
   result.robot_time = static_cast<double>(result.rows.size()) * period;
   compute_metrics(run_program, result);
