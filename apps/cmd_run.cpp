@@ -113,10 +113,12 @@ int run(const RunArgs& args) {
   const std::string log_file = out + "/telemetry.lcmlog";
   runtime::TelemetryPublisher telemetry(args.lcm.empty() ? runtime::log_url(log_file) : args.lcm);
   telemetry.start();
+  install_stop_signal_handlers();  // Ctrl-C: a controlled stop (SS1), not a dropped robot
   std::vector<RunResult> runs;
   for (const auto& v : variants) {
     RunOptions opts;
     opts.telemetry = &telemetry;
+    opts.fault_log_path = out + "/faults.jsonl";
     // A terminal gets one line rewritten in place; a log gets a line per second of robot time.
     const bool tty = isatty(fileno(stdout));
     opts.progress = [tty](const std::string& name, double t, double duration) {

@@ -168,8 +168,18 @@ int run_sim(const SimArgs& a) {
     }
   }
   fmt::print("{}\n", status_line(emu, seconds(now_ns())));
-  fmt::print("dualv sim: stopped ({}), {} SYNCs, {} frames not for these drives\n", reason,
-             emu.syncs(), emu.unhandled_frames());
+  fmt::print("dualv sim: stopped ({}), {} SYNCs, {} virtual SYNCs (free run), {} frames not for "
+             "these drives\n",
+             reason, emu.syncs(), emu.virtual_syncs(), emu.unhandled_frames());
+  for (int i = 0; i < emu.size(); ++i) {
+    const sim::EmulatedDriveCounters c = emu.status(i).counters;
+    fmt::print("dualv sim: node {}: {} RPDOs ({} too short), {} TPDOs, {} SDO requests ({} aborted), "
+               "{} EMCYs, RPDO watchdog trips {}, RPDO deadline trips {}, heartbeat losses {}, "
+               "send failures {}\n",
+               emu.status(i).node_id, c.rpdos, c.rpdo_length_errors, c.tpdos_sent, c.sdo_requests,
+               c.sdo_aborts_sent, c.emcy_sent, c.watchdog_trips, c.deadline_trips,
+               c.heartbeat_losses, c.tx_failures);
+  }
   std::fflush(stdout);
   return 0;
 }

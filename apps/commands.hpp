@@ -11,6 +11,7 @@ int& exit_code() noexcept;
 
 void register_model_command(CLI::App& app);
 void register_run_command(CLI::App& app);
+void register_plot_command(CLI::App& app);
 void register_bus_load_command(CLI::App& app);
 void register_status_command(CLI::App& app);
 void register_estop_command(CLI::App& app);

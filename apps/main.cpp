@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "dualv 0.1.0");
   dualv::apps::register_model_command(app);
   dualv::apps::register_run_command(app);
+  dualv::apps::register_plot_command(app);
   dualv::apps::register_bus_load_command(app);
   dualv::apps::register_status_command(app);
   dualv::apps::register_estop_command(app);

@@ -38,6 +38,26 @@ const char* to_string(ArmStatus s) noexcept {
   return "unknown";
 }
 
+std::int8_t telemetry_state(const SafetyReport& r) noexcept {
+  constexpr FaultSet kEstop = bit(Fault::kEstopLcm) | bit(Fault::kEstopSignal) |
+                              bit(Fault::kEstopCli) | bit(Fault::kEstopInput);
+  constexpr FaultSet kDrive =
+      bit(Fault::kDriveLost) | bit(Fault::kDriveFault) | bit(Fault::kBusError);
+  switch (r.state) {
+    case SafetyState::kDisabled:
+      return 0;
+    case SafetyState::kOperational:
+      return 1;
+    case SafetyState::kSs1:
+      return 2;
+    case SafetyState::kSto:
+      if (r.latched & kEstop) return 4;
+      if (r.latched & kDrive) return 5;
+      return 3;
+  }
+  return 5;
+}
+
 CycleLimits cycle_limits(const SafetyConfig& c, double period) noexcept {
   auto cycles = [period](double t) {
     return static_cast<std::int32_t>(std::max(1.0, std::ceil(t / period - 1e-9)));

@@ -74,6 +74,11 @@ struct SafetyReport {
   std::uint64_t checks = 0;      // update() count (the write-path watchdog's token)
 };
 
+// The state code of dualv_lcm::robot_state_t (SAFETY_DISABLED 0, OPERATIONAL 1, SS1 2,
+// STO 3, ESTOP 4, FAULT 5) for a report: a stop latched by an e-stop source reads ESTOP, one
+// latched by a drive or the bus reads FAULT, any other completed stop STO. noexcept.
+std::int8_t telemetry_state(const SafetyReport& report) noexcept;
+
 enum class ArmStatus : std::uint8_t { kOk = 0, kLatched, kInvalidFeedback };
 const char* to_string(ArmStatus s) noexcept;
 

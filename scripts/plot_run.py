@@ -30,8 +30,8 @@ def load(path):
 def shape_segments(run):
     """Segment ids whose lambda moves: the closed shapes."""
     segs = {}
-    for seg, lam_dot in zip(run["segment"], run["lambda_dot"]):
-        if abs(lam_dot) > 0:
+    for seg, lam, lam_dot in zip(run["segment"], run["lambda"], run["lambda_dot"]):
+        if abs(lam_dot) > 0 or abs(lam) > 0:
             segs.setdefault(int(seg), True)
     return sorted(segs)
 
@@ -46,12 +46,28 @@ def main():
         p = os.path.join(d, name + ".csv")
         if os.path.exists(p):
             runs[name] = load(p)
+    if not runs:  # runs converted from an LCM log (dualv plot LOG): every CSV but the summary
+        for f in sorted(os.listdir(d)):
+            if f.endswith(".csv") and f != "summary.csv":
+                runs[f[:-4]] = load(os.path.join(d, f))
     if not runs:
         print(f"plot_run.py: no run CSV in {d}", file=sys.stderr)
         return 1
     colours = {"retimed": "tab:blue", "original": "tab:red",
                "retimed-no-projection": "tab:green", "retimed-no-feedforward": "tab:orange"}
-    main_runs = [n for n in ("retimed", "original") if n in runs]
+    main_runs = [n for n in ("retimed", "original") if n in runs] or list(runs)[:2]
+    palette = ["tab:blue", "tab:red", "tab:green", "tab:orange"]
+    for i, n in enumerate(runs):
+        colours.setdefault(n, palette[i % len(palette)])
+
+    # Shape names per segment, from summary.csv when `dualv run` wrote one.
+    names = {}
+    summary = os.path.join(d, "summary.csv")
+    if os.path.exists(summary):
+        with open(summary, newline="") as f:
+            for r in csv.DictReader(f):
+                if r["segment"].isdigit():
+                    names[int(r["segment"])] = r["shape"]
 
     # Paths per shape.
     ref = runs[main_runs[0]]
@@ -70,7 +86,7 @@ def main():
         ax.set_aspect("equal")
         ax.set_xlabel("x [mm]")
         ax.set_ylabel("y [mm]")
-        ax.set_title(f"segment {seg}")
+        ax.set_title(names.get(seg, f"segment {seg}"))
     axes[0].legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(os.path.join(d, "paths.png"), dpi=110)
@@ -123,7 +139,7 @@ def main():
 
     # Internal torque.
     fig, ax = plt.subplots(figsize=(10, 3.5))
-    for name in ("retimed", "retimed-no-projection"):
+    for name in [n for n in ("retimed", "retimed-no-projection") if n in runs] or main_runs:
         if name in runs:
             r = runs[name]
             ax.semilogy(r["t"], [max(v, 1e-18) for v in r["tau_internal"]],

@@ -2,12 +2,18 @@
 
 #include <fmt/format.h>
 
+#include <atomic>
 #include <chrono>
+#include <csignal>
+#include <memory>
+#include <thread>
 #include <cmath>
 
 #include "control/loop/control_cycle.hpp"
 #include "control/loop/periodic_executive.hpp"
 #include "safety/fault.hpp"
+#include "safety/fault_log.hpp"
+#include "safety/safety_filter.hpp"
 #include "sim/plant.hpp"
 #include "sim/sim_actuator_set.hpp"
 
@@ -54,6 +60,70 @@ void accumulate(SegmentMetrics& m, const Row& row, const Row* prev, int n, doubl
   ++m.cycles;
 }
 
+std::atomic<safety::SafetyFilter*> g_active_filter{nullptr};
+
+extern "C" void on_stop_signal(int sig) {
+  safety::SafetyFilter* f = g_active_filter.load();
+  if (!f) {  // nothing is moving: leave as the signal's default would
+    std::signal(sig, SIG_DFL);
+    std::raise(sig);
+    return;
+  }
+  f->request_stop(safety::StopSource::kSignal);  // lock-free, async-signal-safe
+  std::signal(sig, SIG_DFL);                      // a second signal ends the process
+}
+
+// Drains the safety fault log off the RT thread: to a JSON-lines file and to telemetry.
+class FaultLogDrain {
+ public:
+  FaultLogDrain(safety::FaultLog& log, const RunOptions& options) : log_(log), options_(options) {
+    if (!options.fault_log_path.empty())
+      writer_ = std::make_unique<safety::FaultLogWriter>(options.fault_log_path);
+    if (writer_ || options.telemetry) thread_ = std::thread([this] { loop(); });
+  }
+  ~FaultLogDrain() {
+    stop_ = true;
+    if (thread_.joinable()) thread_.join();
+    drain();
+  }
+
+ private:
+  void loop() {
+    while (!stop_) {
+      drain();
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  }
+  void drain() {
+    auto publish = [this](const safety::FaultEvent& e) {
+      if (!options_.telemetry) return;
+      runtime::FaultSample f;
+      f.utime = runtime::wall_utime();
+      f.cycle = e.cycle;
+      runtime::copy_text(f.cause, e.fault == safety::Fault::kCount ? safety::to_string(e.kind)
+                                                                   : safety::to_string(e.fault));
+      runtime::copy_text(f.reaction, safety::to_string(e.reaction));
+      f.node = e.drive;
+      f.detection_latency_cycles = e.latency_cycles;
+      f.n = e.n;
+      for (int i = 0; i < e.n && i < runtime::kMaxJoints; ++i) f.tau_at_detection[i] = e.torque[i];
+      runtime::copy_text(f.text, safety::describe(e));
+      options_.telemetry->push_fault(f);
+    };
+    if (writer_) {
+      writer_->drain(log_, publish);
+    } else {
+      safety::FaultEvent e;
+      while (log_.try_pop(e)) publish(e);
+    }
+  }
+  safety::FaultLog& log_;
+  const RunOptions& options_;
+  std::unique_ptr<safety::FaultLogWriter> writer_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
 // One cycle as a telemetry sample (noexcept, no allocation: a copy into fixed arrays).
 runtime::StateSample state_sample(const control::CycleRecord& rec, int n, bool simulated) noexcept {
   runtime::StateSample s;
@@ -75,13 +145,18 @@ runtime::StateSample state_sample(const control::CycleRecord& rec, int n, bool s
   s.lambda = rec.ref.phase.lambda;
   s.segment = static_cast<std::int32_t>(rec.ref.segment);
   const bool running = rec.phase == control::CyclePhase::kRunning;
-  s.safety_state = rec.status == control::CycleStatus::kOk ? (running ? 1 : 0) : 5;
-  runtime::copy_text(s.safety_text, control::to_string(rec.phase));
-  s.status_flags = (simulated ? 1 : 0) | (running ? 16 : 0);
+  s.safety_state = safety::telemetry_state(rec.safety);
+  runtime::copy_text(s.safety_text, safety::to_string(rec.safety.state));
+  s.status_flags = (simulated ? 1 : 0) | (running ? 16 : 0) | (rec.safety.latched ? 2 : 0);
   return s;
 }
 
 }  // namespace
+
+void install_stop_signal_handlers() {
+  std::signal(SIGINT, on_stop_signal);
+  std::signal(SIGTERM, on_stop_signal);
+}
 
 void compute_metrics(const trajectory::Program& program, RunResult& r) {
   const auto& segs = program.segments();
@@ -130,7 +205,7 @@ RunResult run_program(const RobotConfig& config, const trajectory::Program& prog
   setup.controller.projection = variant.projection;
   setup.controller.feedforward = variant.feedforward;
   const double period = config.period();
-  control::ControlCycle cycle(config.model, setup, {period, 2.0});
+  control::ControlCycle cycle(config.model, setup, {period, 2.0, config.safety});
   cycle.start(io, trajectory::with_timing(program, variant.timing), config.trajectory.rebase);
   const trajectory::Program& run_program = cycle.sequencer()->program();
   const double duration = cycle.program_duration();
@@ -149,18 +224,35 @@ RunResult run_program(const RobotConfig& config, const trajectory::Program& prog
   control::PeriodicExecutive executive(exec, paced ? static_cast<control::LoopClock&>(mono)
                                                    : static_cast<control::LoopClock&>(sim_clock),
                                        &mono);
+  FaultLogDrain fault_drain(cycle.safety().log(), options);
+  g_active_filter = &cycle.safety();
+  struct Deactivate {
+    ~Deactivate() { g_active_filter = nullptr; }
+  } deactivate;
   control::CycleRecord rec;
   const bool simulated = static_cast<bool>(after_cycle);
   const std::int64_t progress_every = std::max<std::int64_t>(1, std::llround(0.5 / period));
   bool failed = false;
+  control::CycleRecord failure_record;  // the cycle that first failed (copied once, set-up size)
   auto fn = [&](const control::CycleInfo& info) noexcept -> control::CycleResult {
-    cycle.note_timing(info.lateness_ns > exec.period_ns, info.consecutive_misses);
+    cycle.note_timing(info.skipped_releases > 0, info.consecutive_misses);
     const control::CycleStatus s = cycle.step(io, rec);
     const double internal = after_cycle ? after_cycle() : std::nan("");
-    if (s != control::CycleStatus::kOk || (after_cycle && std::isnan(internal))) {
+    if (after_cycle && std::isnan(internal)) {  // the simulated plant itself failed
       failed = true;
       return control::CycleResult::kStop;
     }
+    if (s != control::CycleStatus::kOk) {
+      // Keep cycling while the safety filter brings the machine to rest (SS1): the stop is
+      // carried out by this loop, not by the drives' timeouts. Stop once torque is off.
+      if (!failed) failure_record = rec;
+      failed = true;
+      const bool torque_off = rec.safety.state == safety::SafetyState::kSto ||
+                              rec.safety.state == safety::SafetyState::kDisabled;
+      return torque_off || s != control::CycleStatus::kSafetyStop ? control::CycleResult::kStop
+                                                                  : control::CycleResult::kContinue;
+    }
+    if (failed) return control::CycleResult::kContinue;
     if (rec.phase == control::CyclePhase::kEnabling) return control::CycleResult::kContinue;
     Row row;
     row.t = rec.t;
@@ -201,14 +293,17 @@ RunResult run_program(const RobotConfig& config, const trajectory::Program& prog
     options.telemetry->push_loop_stats(ls);
   }
   if (failed) {
+    const control::CycleRecord& bad = failure_record.cycle > 0 ? failure_record : rec;
     result.ok = false;
-    result.failure = fmt::format("cycle {} (t = {:.3f} s): {}", rec.cycle, rec.t,
-                                 control::to_string(rec.status));
+    result.failure = fmt::format("cycle {} (t = {:.3f} s): {}", bad.cycle, bad.t,
+                                 control::to_string(bad.status));
     std::string causes;
     for (int f = 0; f < safety::kFaultCount; ++f)
-      if (rec.safety.latched & safety::bit(static_cast<safety::Fault>(f)))
+      if (bad.safety.latched & safety::bit(static_cast<safety::Fault>(f)))
         causes += std::string(causes.empty() ? "" : ", ") + safety::to_string(static_cast<safety::Fault>(f));
     if (!causes.empty()) result.failure += " (" + causes + ")";
+    result.failure += fmt::format("; stopped with the safety state {} at cycle {}",
+                                  safety::to_string(rec.safety.state), rec.cycle);
   }
   result.robot_time = static_cast<double>(result.rows.size()) * period;
   compute_metrics(run_program, result);

@@ -71,6 +71,8 @@ struct RunOptions {
   // Telemetry (robot state every cycle, loop statistics at the end) goes to this publisher's
   // queue when set: an LCM log by default (`dualv run`), or live with --lcm URL.
   runtime::TelemetryPublisher* telemetry = nullptr;
+  // Safety events (fault log) are appended to this JSON-lines file by a non-RT thread when set.
+  std::string fault_log_path;
   std::function<void(const std::string& variant, double t, double duration)> progress;
 };
 
@@ -86,6 +88,10 @@ RunResult run_in_process(const RobotConfig& config, const trajectory::Program& p
 RunResult run_program(const RobotConfig& config, const trajectory::Program& program,
                       const Variant& variant, drivers::ActuatorSet& io, const RunOptions& options,
                       const std::function<double()>& after_cycle = {});
+
+// SIGINT / SIGTERM request a safety stop (SS1) of the run in progress; a second signal, or a
+// signal while no run is active, ends the process at once.
+void install_stop_signal_handlers();
 
 // Metrics from rows (used for any backend: in-process, CAN).
 void compute_metrics(const trajectory::Program& program, RunResult& result);
