@@ -174,7 +174,7 @@ FkResult forward_kinematics(const Model& model, Data& data, const JointVector& q
       break;
     }
   }
-  residual(x, norm);  // leaves data at the returned pose
+  // Every path above leaves `data` evaluated at `x` (the last residual taken was at x).
   result.residual = norm;
   result.status = !converged                     ? Status::kNotConverged
                   : norm > options.max_residual ? Status::kInconsistent
