@@ -57,8 +57,7 @@ void register_model_command(CLI::App& app) {
   static std::string config;
   static std::vector<double> pose;
   add_config_option(*cmd, config);
-  cmd->add_option("--pose", pose, "Plate pose x y theta [m m rad] (default: home)")
-      ->expected(3);
+  cmd->add_option("--pose", pose, "Plate pose x y theta [m m rad] (default: home)")->expected(3);
   cmd->callback([] { print_model(resolve_config(config), pose); });
 }
 

@@ -83,7 +83,8 @@ void register_plot_command(CLI::App& app) {
       "plot", "Draw the paper-style figures from a `dualv run` folder or an LCM log");
   static std::string path, out;
   cmd->add_option("path", path, "Run output folder (CSV) or LCM log (.lcmlog)")->required();
-  cmd->add_option("-o,--out", out, "Folder for CSV and figures from a log (default: <log dir>/plots)");
+  cmd->add_option("-o,--out", out,
+                  "Folder for CSV and figures from a log (default: <log dir>/plots)");
   cmd->callback([] { plot(path, out); });
 }
 

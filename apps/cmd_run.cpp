@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
@@ -19,10 +20,11 @@
 #include "apps/experiment/robot_config.hpp"
 #include "common/yaml_reader.hpp"
 #include "control/loop/cycle_stats.hpp"
-#include "drivers/canopen_setup.hpp"
-#include "runtime/telemetry_publisher.hpp"
 #include "control/trajectory/preflight.hpp"
 #include "control/trajectory/program.hpp"
+#include "drivers/canopen_actuator_set.hpp"
+#include "drivers/canopen_setup.hpp"
+#include "runtime/telemetry_publisher.hpp"
 
 namespace dualv::apps {
 
@@ -105,16 +107,19 @@ int run(const RunArgs& args) {
 
   const std::string out = args.out.empty() ? default_out_dir() : args.out;
   std::filesystem::create_directories(out);
-  fmt::print("dualv run: {} ({} segments, {:.2f} s) on {} at {:.0f} Hz{}\n", program_file,
-             program.size(), program.duration(),
-             drives ? "the CANopen drives on " + args.can : std::string("the in-process simulated Dual-V"),
-             cfg.rate_hz(), args.realtime || drives ? ", paced in real time" : ", simulated time");
+  fmt::print(
+      "dualv run: {} ({} segments, {:.2f} s) on {} at {:.0f} Hz{}\n", program_file, program.size(),
+      program.duration(),
+      drives ? "the CANopen drives on " + args.can : std::string("the in-process simulated Dual-V"),
+      cfg.rate_hz(), args.realtime || drives ? ", paced in real time" : ", simulated time");
   // Telemetry: an LCM log in the output folder (LCM's file provider: no network), or live.
   const std::string log_file = out + "/telemetry.lcmlog";
   runtime::TelemetryPublisher telemetry(args.lcm.empty() ? runtime::log_url(log_file) : args.lcm);
   telemetry.start();
   install_stop_signal_handlers();  // Ctrl-C: a controlled stop (SS1), not a dropped robot
   std::vector<RunResult> runs;
+  // Frames sent before the program (boot, priming): the bus report below separates them.
+  const std::uint64_t syncs_before = drives ? drives->actuators().counters().sync_sent : 0;
   for (const auto& v : variants) {
     RunOptions opts;
     opts.telemetry = &telemetry;
@@ -133,23 +138,46 @@ int run(const RunArgs& args) {
     runs.push_back(drives ? run_program(cfg, program, v, drives->actuators(), opts)
                           : run_in_process(cfg, program, v, opts));
     const RunResult& r = runs.back();
-    fmt::print("{}  {:<24} {} in {:.2f} s wall ({:.0f}x real time){}\n", tty ? "\r" : "", v.name, r.ok ? "done" : "FAILED", r.wall_time, r.robot_time / std::max(r.wall_time, 1e-9),
+    fmt::print("{}  {:<24} {} in {:.2f} s wall ({:.0f}x real time){}\n", tty ? "\r" : "", v.name,
+               r.ok ? "done" : "FAILED", r.wall_time, r.robot_time / std::max(r.wall_time, 1e-9),
                r.ok ? "" : ": " + r.failure);
   }
   telemetry.stop();
   const runtime::TelemetryCounters tc = telemetry.counters();
   fmt::print("\n{}", summary_table(runs));
   if (args.realtime || drives) fmt::print("\n{}", control::format_loop_stats(runs.back().loop));
+  if (drives) {
+    // What crossed the bus, as the master counted it (the HIL tests compare it with candump).
+    const drivers::CanopenActuatorSet& set = drives->actuators();
+    const drivers::CanopenCounters& c = set.counters();
+    fmt::print(
+        "\nbus: {} SYNCs sent ({} before the program: priming), ENOBUFS {}, send errors {}, "
+        "bus-off {}; received: foreign SYNCs {}, unknown frames {}, malformed frames {}, "
+        "ignored frames {}\n",
+        c.sync_sent, syncs_before, c.tx_would_block, c.tx_errors, c.bus_off, c.foreign_sync,
+        c.unknown_frames, c.malformed_frames, c.ignored_frames);
+    for (int i = 0; i < set.size(); ++i) {
+      const drivers::DriveCounters& d = set.drive_counters(i);
+      fmt::print(
+          "  {}; TPDOs {}, missed {}, late {}, duplicate {}, out of order {}, malformed {}, "
+          "EMCYs {}, heartbeat timeouts {}, boot-ups {}\n",
+          drivers::describe(set.health(i)), d.tpdos, d.missed, d.late, d.duplicates, d.out_of_order,
+          d.malformed, d.emcys, d.heartbeat_timeouts, d.boot_ups);
+    }
+  }
   write_csv(out, runs);
   if (args.plots) {
     const std::string why = draw_plots(out);
     if (!why.empty()) fmt::print(stderr, "dualv run: no plots: {}\n", why);
   }
   fmt::print("\ntelemetry: {} robot states{} {}\n", tc.states,
-             tc.states_dropped ? fmt::format(" ({} dropped: the publisher fell behind)", tc.states_dropped) : "",
+             tc.states_dropped
+                 ? fmt::format(" ({} dropped: the publisher fell behind)", tc.states_dropped)
+                 : "",
              args.lcm.empty() ? "in " + log_file + " (lcm-logplayer, dualv status --lcm file://...)"
                               : "published on " + args.lcm);
-  fmt::print("results in {}/ (CSV time series, summary.csv{})\n", out, args.plots ? ", PNG figures" : "");
+  fmt::print("results in {}/ (CSV time series, summary.csv{})\n", out,
+             args.plots ? ", PNG figures" : "");
   for (const auto& r : runs)
     if (!r.ok) return 1;
   return 0;
@@ -158,11 +186,13 @@ int run(const RunArgs& args) {
 }  // namespace
 
 void register_run_command(CLI::App& app) {
-  auto* cmd = app.add_subcommand("run", "Run a program in closed loop (default: the paper's experiment "
-                                        "on the in-process simulation)");
+  auto* cmd = app.add_subcommand("run",
+                                 "Run a program in closed loop (default: the paper's experiment "
+                                 "on the in-process simulation)");
   static RunArgs args;
   add_config_option(*cmd, args.config);
-  cmd->add_option("-p,--program", args.program, "Program YAML (default: paper.yaml beside the config)");
+  cmd->add_option("-p,--program", args.program,
+                  "Program YAML (default: paper.yaml beside the config)");
   cmd->add_option("-o,--out", args.out, "Output folder (default: out/run-<date>-<time>)");
   cmd->add_option("--rate", args.rate_hz, "Control rate [Hz] (default: loop.rate_hz)")
       ->check(CLI::Range(10.0, 20000.0));
@@ -170,10 +200,12 @@ void register_run_command(CLI::App& app) {
                   "Run only these variants: retimed, original, retimed-no-projection, "
                   "retimed-no-feedforward (default: all)");
   cmd->add_flag("!--no-plots", args.plots, "Skip the PNG figures");
-  cmd->add_flag("--realtime", args.realtime,
-                "Pace the in-process simulation by the clock at the control rate and report jitter");
-  cmd->add_option("--can", args.can,
-                  "Control CANopen drives (or `dualv sim --can IFACE`) on this SocketCAN interface");
+  cmd->add_flag(
+      "--realtime", args.realtime,
+      "Pace the in-process simulation by the clock at the control rate and report jitter");
+  cmd->add_option(
+      "--can", args.can,
+      "Control CANopen drives (or `dualv sim --can IFACE`) on this SocketCAN interface");
   cmd->add_option("--lcm", args.lcm,
                   "Publish telemetry live on this LCM URL (e.g. udpm://239.255.76.67:7667?ttl=0) "
                   "instead of writing <out>/telemetry.lcmlog");

@@ -7,7 +7,8 @@
 // advances by the nominal SYNC period on each SYNC, so the physics do not depend on the
 // loop's jitter. Exits cleanly (status 0) on SIGINT/SIGTERM, --exit-after or
 // --exit-when-idle. Test hooks: --estop-after presses the e-stop input of every drive,
-// --fault-after raises a drive fault with an EMCY code.
+// --fault-after raises a drive fault with an EMCY code, and so does SIGUSR1 (at a moment
+// a test chooses, e.g. while a program runs: drive --fault-drive, code --fault-code).
 #include <fmt/core.h>
 
 #include <CLI/CLI.hpp>
@@ -30,7 +31,9 @@ namespace dualv::apps {
 namespace {
 
 volatile std::sig_atomic_t g_stop = 0;
+volatile std::sig_atomic_t g_fault = 0;
 void on_stop_signal(int) { g_stop = 1; }
+void on_fault_signal(int) { g_fault = 1; }
 
 struct SimArgs {
   std::string config;
@@ -54,6 +57,8 @@ void install_signal_handlers() {
   sa.sa_flags = 0;  // no SA_RESTART: poll() in wait_readable returns at once
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
+  sa.sa_handler = on_fault_signal;
+  sigaction(SIGUSR1, &sa, nullptr);
 }
 
 std::string status_line(const sim::DriveEmulator& emu, double t) {
@@ -144,11 +149,15 @@ int run_sim(const SimArgs& a) {
       release_done = true;
       fmt::print("dualv sim: t={:.3f}s e-stop input released\n", t);
     }
-    if (a.fault_after >= 0 && !fault_done && t >= a.fault_after) {
+    const bool fault_signal = g_fault != 0;
+    const bool fault_timed = a.fault_after >= 0 && !fault_done && t >= a.fault_after;
+    if (fault_signal || fault_timed) {
+      g_fault = 0;
+      fault_done = fault_done || fault_timed;
       emu.inject_fault(a.fault_drive, static_cast<std::uint16_t>(fault_code));
-      fault_done = true;
-      fmt::print("dualv sim: t={:.3f}s fault {:04X}h ({}) injected on drive {}\n", t, fault_code,
-                 fw::emcy_text(static_cast<std::uint16_t>(fault_code)), a.fault_drive);
+      fmt::print("dualv sim: t={:.3f}s fault {:04X}h ({}) injected on drive {}{}\n", t, fault_code,
+                 fw::emcy_text(static_cast<std::uint16_t>(fault_code)), a.fault_drive,
+                 fault_signal ? " (SIGUSR1)" : "");
     }
     if (next_status > 0 && t >= next_status) {
       fmt::print("{}\n", status_line(emu, t));
@@ -168,17 +177,19 @@ int run_sim(const SimArgs& a) {
     }
   }
   fmt::print("{}\n", status_line(emu, seconds(now_ns())));
-  fmt::print("dualv sim: stopped ({}), {} SYNCs, {} virtual SYNCs (free run), {} frames not for "
-             "these drives\n",
-             reason, emu.syncs(), emu.virtual_syncs(), emu.unhandled_frames());
+  fmt::print(
+      "dualv sim: stopped ({}), {} SYNCs, {} virtual SYNCs (free run), {} frames not for "
+      "these drives\n",
+      reason, emu.syncs(), emu.virtual_syncs(), emu.unhandled_frames());
   for (int i = 0; i < emu.size(); ++i) {
     const sim::EmulatedDriveCounters c = emu.status(i).counters;
-    fmt::print("dualv sim: node {}: {} RPDOs ({} too short), {} TPDOs, {} SDO requests ({} aborted), "
-               "{} EMCYs, RPDO watchdog trips {}, RPDO deadline trips {}, heartbeat losses {}, "
-               "send failures {}\n",
-               emu.status(i).node_id, c.rpdos, c.rpdo_length_errors, c.tpdos_sent, c.sdo_requests,
-               c.sdo_aborts_sent, c.emcy_sent, c.watchdog_trips, c.deadline_trips,
-               c.heartbeat_losses, c.tx_failures);
+    fmt::print(
+        "dualv sim: node {}: {} RPDOs ({} too short), {} TPDOs, {} SDO requests ({} aborted), "
+        "{} EMCYs, RPDO watchdog trips {}, RPDO deadline trips {}, heartbeat losses {}, "
+        "send failures {}\n",
+        emu.status(i).node_id, c.rpdos, c.rpdo_length_errors, c.tpdos_sent, c.sdo_requests,
+        c.sdo_aborts_sent, c.emcy_sent, c.watchdog_trips, c.deadline_trips, c.heartbeat_losses,
+        c.tx_failures);
   }
   std::fflush(stdout);
   return 0;
@@ -196,9 +207,11 @@ void register_sim_command(CLI::App& app) {
                   "Press the e-stop input (60FDh) of every drive after S seconds");
   cmd->add_option("--estop-release-after", args->estop_release_after,
                   "Release the e-stop input after S seconds");
-  cmd->add_option("--fault-after", args->fault_after, "Raise a drive fault after S seconds");
-  cmd->add_option("--fault-drive", args->fault_drive, "Drive (0..n-1) for --fault-after");
-  cmd->add_option("--fault-code", args->fault_code, "EMCY code for --fault-after (0x2310)");
+  cmd->add_option("--fault-after", args->fault_after,
+                  "Raise a drive fault after S seconds (SIGUSR1 raises it at once)");
+  cmd->add_option("--fault-drive", args->fault_drive, "Drive (0..n-1) for --fault-after / SIGUSR1");
+  cmd->add_option("--fault-code", args->fault_code,
+                  "EMCY code for --fault-after / SIGUSR1 (0x2310)");
   cmd->add_option("--exit-after", args->exit_after, "Exit after S seconds");
   cmd->add_option("--exit-when-idle", args->exit_when_idle,
                   "Exit when no frame has arrived for S seconds");

@@ -15,8 +15,8 @@ namespace dualv::apps {
 inline std::string default_config_dir() { return DUALV_DEFAULT_CONFIG_DIR; }
 
 inline void add_config_option(CLI::App& cmd, std::string& config) {
-  cmd.add_option("-c,--config", config, "Robot configuration YAML (default: " +
-                                            default_config_dir() + "/dualv.yaml)");
+  cmd.add_option("-c,--config", config,
+                 "Robot configuration YAML (default: " + default_config_dir() + "/dualv.yaml)");
 }
 
 inline std::string resolve_config(const std::string& given) {

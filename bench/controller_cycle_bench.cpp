@@ -4,8 +4,8 @@
 // A table, not a Google Benchmark: the tail of the distribution is what matters here.
 #include <fmt/core.h>
 
-#include <algorithm>
 #include <time.h>
+#include <algorithm>
 #include <vector>
 
 #include "control/controller/controller.hpp"
@@ -59,14 +59,15 @@ int main() {
   }
   std::sort(ns.begin(), ns.end());
   auto pct = [&](double p) { return ns[static_cast<std::size_t>(p * (ns.size() - 1))]; };
-  fmt::print("controller cycle (read + estimate + sample + control + projection + safety + write), "
-             "thread CPU time, {} cycles\n",
-             ns.size());
+  fmt::print(
+      "controller cycle (read + estimate + sample + control + projection + safety + write), "
+      "thread CPU time, {} cycles\n",
+      ns.size());
   fmt::print("{:>10} {:>10} {:>10} {:>10} {:>10}\n", "min ns", "median ns", "p99 ns", "p99.9 ns",
              "max ns");
   fmt::print("{:>10.0f} {:>10.0f} {:>10.0f} {:>10.0f} {:>10.0f}\n", ns.front(), pct(0.5), pct(0.99),
              pct(0.999), ns.back());
-  fmt::print("targets: median < 2000 ns {}, p99.9 < 10000 ns {}\n", pct(0.5) < 2000 ? "met" : "MISSED",
-             pct(0.999) < 10000 ? "met" : "MISSED");
+  fmt::print("targets: median < 2000 ns {}, p99.9 < 10000 ns {}\n",
+             pct(0.5) < 2000 ? "met" : "MISSED", pct(0.999) < 10000 ? "met" : "MISSED");
   return 0;
 }

@@ -29,7 +29,8 @@ class YamlReader {
   int integer(const std::string& key, std::optional<int> fallback = std::nullopt);
   bool boolean(const std::string& key, std::optional<bool> fallback = std::nullopt);
   std::string string(const std::string& key, std::optional<std::string> fallback = std::nullopt);
-  std::vector<double> numbers(const std::string& key, std::optional<std::vector<double>> fallback = std::nullopt);
+  std::vector<double> numbers(const std::string& key,
+                              std::optional<std::vector<double>> fallback = std::nullopt);
   // Sub-map and sequence of maps; an absent optional child yields an empty node.
   YamlReader child(const std::string& key, bool required = true);
   std::vector<YamlReader> children(const std::string& key, bool required = true);
@@ -39,7 +40,8 @@ class YamlReader {
   void require(bool ok, const std::string& key, const std::string& rule);
   double positive(const std::string& key, std::optional<double> fallback = std::nullopt);
   double non_negative(const std::string& key, std::optional<double> fallback = std::nullopt);
-  double in_range(const std::string& key, double lo, double hi, std::optional<double> fallback = std::nullopt);
+  double in_range(const std::string& key, double lo, double hi,
+                  std::optional<double> fallback = std::nullopt);
 
   // Records every key of this map that was never read as "unknown key".
   void reject_unknown_keys();

@@ -9,6 +9,7 @@
 #include "common/yaml_reader.hpp"
 #include "control/model/dynamics.hpp"
 #include "control/model/kinematics.hpp"
+#include "control/model/solve_spd3.hpp"
 
 namespace dualv::sim {
 
@@ -36,32 +37,6 @@ void read_mismatch(YamlReader& parent, const char* key, MismatchPercent& m) {
   r.require(m.mass > -100.0, "mass_percent", "must be > -100", m.mass);
   r.require(m.inertia > -100.0, "inertia_percent", "must be > -100", m.inertia);
   r.reject_unknown_keys();
-}
-
-// Solves the 3x3 symmetric positive definite M x = b (upper triangle of M used); false
-// when M is not positive definite (Eigen::LLT's criterion). Written out: Eigen's LLT cost
-// a fifth of a plant step. The same solver as model::forward_dynamics.
-bool solve_spd3(const model::Mat3& M, const model::Twist& b, model::Twist& x) noexcept {
-  const double d0 = M(0, 0);
-  if (!(d0 > 0.0)) return false;
-  // LDL^T without square roots; the pivots d_k are those of Cholesky squared, so the
-  // positive-definiteness test is the same.
-  const double i0 = 1.0 / d0;
-  const double l10 = M(0, 1) * i0, l20 = M(0, 2) * i0;
-  const double d1 = M(1, 1) - l10 * M(0, 1);
-  if (!(d1 > 0.0)) return false;
-  const double i1 = 1.0 / d1;
-  const double m21 = M(1, 2) - l20 * M(0, 1);
-  const double l21 = m21 * i1;
-  const double d2 = M(2, 2) - l20 * M(0, 2) - l21 * m21;
-  if (!(d2 > 0.0)) return false;
-  const double z0 = b[0];
-  const double z1 = b[1] - l10 * z0;
-  const double z2 = b[2] - l20 * z0 - l21 * z1;
-  x[2] = z2 / d2;
-  x[1] = z1 * i1 - l21 * x[2];
-  x[0] = z0 * i0 - l10 * x[1] - l20 * x[2];
-  return true;
 }
 
 model::Body scaled(const model::Body& b, const MismatchPercent& p) noexcept {
@@ -275,7 +250,7 @@ model::Status Plant::acceleration(const model::Pose& X, const model::Twist& X_do
   model::Twist F = -data_.h - data_.g;
   for (int i = 0; i < true_model_.n; ++i)
     F += (tau_motor[i] - friction_[i]) * data_.Jm.row(i).transpose();  // F_X = Jm^T tau
-  if (!solve_spd3(data_.M, F, X_dd)) return model::Status::kParallelSingular;
+  if (!model::solve_spd3(data_.M, F, X_dd)) return model::Status::kParallelSingular;
   if (!X_dd.allFinite()) return model::Status::kInvalidInput;
   return model::Status::kOk;
 }

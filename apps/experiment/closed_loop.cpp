@@ -4,10 +4,10 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <memory>
 #include <thread>
-#include <cmath>
 
 #include "control/loop/control_cycle.hpp"
 #include "control/loop/periodic_executive.hpp"
@@ -70,7 +70,7 @@ extern "C" void on_stop_signal(int sig) {
     return;
   }
   f->request_stop(safety::StopSource::kSignal);  // lock-free, async-signal-safe
-  std::signal(sig, SIG_DFL);                      // a second signal ends the process
+  std::signal(sig, SIG_DFL);                     // a second signal ends the process
 }
 
 // Drains the safety fault log off the RT thread: to a JSON-lines file and to telemetry.
@@ -221,9 +221,10 @@ RunResult run_program(const RobotConfig& config, const trajectory::Program& prog
   control::MonotonicClock mono;
   control::ExecutiveConfig exec = config.loop;
   exec.realtime = paced;
-  control::PeriodicExecutive executive(exec, paced ? static_cast<control::LoopClock&>(mono)
-                                                   : static_cast<control::LoopClock&>(sim_clock),
-                                       &mono);
+  control::PeriodicExecutive executive(
+      exec,
+      paced ? static_cast<control::LoopClock&>(mono) : static_cast<control::LoopClock&>(sim_clock),
+      &mono);
   FaultLogDrain fault_drain(cycle.safety().log(), options);
   g_active_filter = &cycle.safety();
   struct Deactivate {
@@ -300,7 +301,8 @@ RunResult run_program(const RobotConfig& config, const trajectory::Program& prog
     std::string causes;
     for (int f = 0; f < safety::kFaultCount; ++f)
       if (bad.safety.latched & safety::bit(static_cast<safety::Fault>(f)))
-        causes += std::string(causes.empty() ? "" : ", ") + safety::to_string(static_cast<safety::Fault>(f));
+        causes += std::string(causes.empty() ? "" : ", ") +
+                  safety::to_string(static_cast<safety::Fault>(f));
     if (!causes.empty()) result.failure += " (" + causes + ")";
     result.failure += fmt::format("; stopped with the safety state {} at cycle {}",
                                   safety::to_string(rec.safety.state), rec.cycle);

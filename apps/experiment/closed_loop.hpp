@@ -16,7 +16,7 @@
 namespace dualv::apps {
 
 struct Variant {
-  std::string name;                                            // e.g. "retimed"
+  std::string name;  // e.g. "retimed"
   trajectory::TimingKind timing = trajectory::TimingKind::kRetimed;
   bool projection = true;
   bool feedforward = true;
@@ -31,10 +31,10 @@ struct Row {
   double t = 0.0;  // program time [s]
   int segment = 0;
   model::Pose X_d = model::Pose::Zero();
-  model::Pose X = model::Pose::Zero();       // estimated (forward kinematics of the encoders)
+  model::Pose X = model::Pose::Zero();            // estimated (forward kinematics of the encoders)
   std::array<double, drivers::kMaxDrives> tau{};  // torque sent [N m]
-  double tau_internal = 0.0;        // |N tau| of the command at the estimate [N m]
-  double plant_internal = 0.0;      // |N tau| of the torque the simulated motors apply [N m]
+  double tau_internal = 0.0;                      // |N tau| of the command at the estimate [N m]
+  double plant_internal = 0.0;  // |N tau| of the torque the simulated motors apply [N m]
   double lambda = 0.0, lambda_dot = 0.0, lambda_dd = 0.0;
 };
 
@@ -45,13 +45,13 @@ struct SegmentMetrics {
   double max_error_x_mm = 0.0, max_error_y_mm = 0.0;
   double max_error_mm = 0.0, rms_error_mm = 0.0;  // |(x, y)| error
   std::array<double, drivers::kMaxDrives> peak_tau{};
-  double max_tau_step = 0.0;      // largest |tau_k - tau_k-1| of any motor [N m]
-  double rms_internal = 0.0;      // RMS |N tau| of the commands [N m]
+  double max_tau_step = 0.0;  // largest |tau_k - tau_k-1| of any motor [N m]
+  double rms_internal = 0.0;  // RMS |N tau| of the commands [N m]
   int cycles = 0;
 };
 
 struct RunResult {
-  control::LoopStatsSummary loop;        // cycle time and lateness of the loop
+  control::LoopStatsSummary loop;  // cycle time and lateness of the loop
   Variant variant;
   int n = 0;
   std::vector<Row> rows;
@@ -60,7 +60,7 @@ struct RunResult {
   double robot_time = 0.0;               // [s]
   double wall_time = 0.0;                // [s]
   bool ok = true;
-  std::string failure;                   // why the run stopped early
+  std::string failure;  // why the run stopped early
 };
 
 struct RunOptions {

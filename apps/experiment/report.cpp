@@ -36,9 +36,9 @@ std::string summary_table(const std::vector<RunResult>& runs) {
   const int n = runs.front().n;
   std::string peaks_head;
   for (int i = 0; i < n; ++i) peaks_head += fmt::format(" tau{}", i + 1) + " ";
-  std::string out = fmt::format(
-      "{:<24} {:<10} {:>7} {:>7} {:>7} {:>7} {}{:>8} {:>10}\n", "run", "shape", "max|ex|",
-      "max|ey|", "max|e|", "rms|e|", peaks_head, "max dtau", "rms tau_N");
+  std::string out =
+      fmt::format("{:<24} {:<10} {:>7} {:>7} {:>7} {:>7} {}{:>8} {:>10}\n", "run", "shape",
+                  "max|ex|", "max|ey|", "max|e|", "rms|e|", peaks_head, "max dtau", "rms tau_N");
   out += fmt::format("{:<24} {:<10} {:>7} {:>7} {:>7} {:>7} {:<{}}{:>8} {:>10}\n", "", "", "mm",
                      "mm", "mm", "mm", " peak |tau| N m", peaks_head.size(), "N m", "N m");
   for (const auto& r : runs) {
@@ -60,7 +60,8 @@ std::string summary_table(const std::vector<RunResult>& runs) {
         retimed->shapes.max_error_mm, original->shapes.max_error_mm, retimed->shapes.max_tau_step,
         original->shapes.max_tau_step,
         *std::max_element(retimed->shapes.peak_tau.begin(), retimed->shapes.peak_tau.begin() + n),
-        *std::max_element(original->shapes.peak_tau.begin(), original->shapes.peak_tau.begin() + n));
+        *std::max_element(original->shapes.peak_tau.begin(),
+                          original->shapes.peak_tau.begin() + n));
   }
   return out;
 }
@@ -73,9 +74,10 @@ void write_run_csv(const std::string& file, const RunResult& r) {
   head += ",tau_internal,plant_internal,lambda,lambda_dot,lambda_dd\n";
   std::fputs(head.c_str(), f);
   for (const Row& w : r.rows) {
-    std::string line = fmt::format("{:.6f},{},{:.9f},{:.9f},{:.9f},{:.9f},{:.9f},{:.9f},{:.6f},{:.6f}",
-                                   w.t, w.segment, w.X_d.x(), w.X_d.y(), w.X_d.z(), w.X.x(), w.X.y(),
-                                   w.X.z(), (w.X_d.x() - w.X.x()) * 1e3, (w.X_d.y() - w.X.y()) * 1e3);
+    std::string line =
+        fmt::format("{:.6f},{},{:.9f},{:.9f},{:.9f},{:.9f},{:.9f},{:.9f},{:.6f},{:.6f}", w.t,
+                    w.segment, w.X_d.x(), w.X_d.y(), w.X_d.z(), w.X.x(), w.X.y(), w.X.z(),
+                    (w.X_d.x() - w.X.x()) * 1e3, (w.X_d.y() - w.X.y()) * 1e3);
     for (int i = 0; i < r.n; ++i) line += fmt::format(",{:.6f}", w.tau[i]);
     line += fmt::format(",{:.6g},{:.6g},{:.9f},{:.9f},{:.9f}\n", w.tau_internal, w.plant_internal,
                         w.lambda, w.lambda_dot, w.lambda_dd);

@@ -46,8 +46,10 @@ RobotConfig load_robot_config(const std::string& path) {
       return i.lo < r.lo || i.hi > r.hi;
     };
     const std::pair<const char*, bool> checks[] = {
-        {"safety.workspace.x: must contain trajectory.limits.workspace.x", outside(s.workspace.x, lim.workspace.x)},
-        {"safety.workspace.y: must contain trajectory.limits.workspace.y", outside(s.workspace.y, lim.workspace.y)},
+        {"safety.workspace.x: must contain trajectory.limits.workspace.x",
+         outside(s.workspace.x, lim.workspace.x)},
+        {"safety.workspace.y: must contain trajectory.limits.workspace.y",
+         outside(s.workspace.y, lim.workspace.y)},
         {"safety.workspace.theta: must contain trajectory.limits.workspace.theta",
          outside(s.workspace.theta, lim.workspace.theta)},
         {"safety.torque.max: must be >= trajectory.limits.max_joint_torque",
@@ -62,8 +64,8 @@ RobotConfig load_robot_config(const std::string& path) {
     for (const auto& [what, bad] : checks)
       if (bad) problems.push_back(fmt::format("{}: {}", path, what));
   }
-  const char* known[] = {"model", "controller", "trajectory", "plant", "loop", "safety", "can",
-                         "lcm", "drives"};
+  const char* known[] = {"model",  "controller", "trajectory", "plant", "loop",
+                         "safety", "can",        "lcm",        "drives"};
   for (const auto& kv : root) {
     const std::string key = kv.first.as<std::string>();
     if (std::find(std::begin(known), std::end(known), key) == std::end(known))

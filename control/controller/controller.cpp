@@ -10,9 +10,12 @@ namespace dualv::control {
 
 const char* to_string(ControlStatus s) noexcept {
   switch (s) {
-    case ControlStatus::kOk: return "ok";
-    case ControlStatus::kReferenceInvalid: return "reference invalid";
-    case ControlStatus::kModelFailed: return "model failed";
+    case ControlStatus::kOk:
+      return "ok";
+    case ControlStatus::kReferenceInvalid:
+      return "reference invalid";
+    case ControlStatus::kModelFailed:
+      return "model failed";
   }
   return "unknown";
 }

@@ -10,22 +10,32 @@ namespace dualv::control {
 
 const char* to_string(CyclePhase p) noexcept {
   switch (p) {
-    case CyclePhase::kEnabling: return "enabling";
-    case CyclePhase::kRunning: return "running";
-    case CyclePhase::kHolding: return "holding";
-    case CyclePhase::kStopped: return "stopped";
+    case CyclePhase::kEnabling:
+      return "enabling";
+    case CyclePhase::kRunning:
+      return "running";
+    case CyclePhase::kHolding:
+      return "holding";
+    case CyclePhase::kStopped:
+      return "stopped";
   }
   return "unknown";
 }
 
 const char* to_string(CycleStatus s) noexcept {
   switch (s) {
-    case CycleStatus::kOk: return "ok";
-    case CycleStatus::kIoError: return "io error";
-    case CycleStatus::kEstimateFailed: return "estimate failed";
-    case CycleStatus::kControlFailed: return "control failed";
-    case CycleStatus::kEnableTimeout: return "enable timeout";
-    case CycleStatus::kSafetyStop: return "safety stop";
+    case CycleStatus::kOk:
+      return "ok";
+    case CycleStatus::kIoError:
+      return "io error";
+    case CycleStatus::kEstimateFailed:
+      return "estimate failed";
+    case CycleStatus::kControlFailed:
+      return "control failed";
+    case CycleStatus::kEnableTimeout:
+      return "enable timeout";
+    case CycleStatus::kSafetyStop:
+      return "safety stop";
   }
   return "unknown";
 }
@@ -47,8 +57,8 @@ double ControlCycle::program_duration() const noexcept {
 void ControlCycle::start(drivers::ActuatorSet& io, const trajectory::Program& program,
                          const trajectory::RebaseOptions& rebase) {
   if (io.size() != model_->n)
-    throw std::runtime_error(fmt::format("the actuator set has {} drives but the model has {} chains",
-                                         io.size(), model_->n));
+    throw std::runtime_error(fmt::format(
+        "the actuator set has {} drives but the model has {} chains", io.size(), model_->n));
   drivers::ActuatorFeedback fb;
   const drivers::IoStatus s = io.read(fb);
   if (s == drivers::IoStatus::kBusError || s == drivers::IoStatus::kNotReady)
@@ -66,8 +76,8 @@ void ControlCycle::start(drivers::ActuatorSet& io, const trajectory::Program& pr
   // Arm the safety filter last: nothing above may leave it armed on a failed start.
   std::optional<trajectory::Sequencer> sequencer;
   sequencer.emplace(*model_, trajectory::rebase(program, X, rebase));
-  const safety::ArmStatus armed =
-      safety_.arm(fb, static_cast<std::int64_t>(static_cast<double>(cycle_) * config_.period * 1e9));
+  const safety::ArmStatus armed = safety_.arm(
+      fb, static_cast<std::int64_t>(static_cast<double>(cycle_) * config_.period * 1e9));
   if (armed != safety::ArmStatus::kOk)
     throw std::runtime_error(fmt::format("cannot start: safety: {}", safety::to_string(armed)));
   estimator_.reset(q, X);

@@ -47,17 +47,17 @@ struct CycleRecord {
   double t = 0.0;  // program time [s]
   CyclePhase phase = CyclePhase::kEnabling;
   CycleStatus status = CycleStatus::kOk;
-  trajectory::Reference ref;  // X_d, q_d, lambda, segment ...
-  StateEstimate est;          // q, q_dot, X, X_dot
-  ControlOutput control;      // tau*, tau_pd, tau_ff, errors, internal part
+  trajectory::Reference ref;         // X_d, q_d, lambda, segment ...
+  StateEstimate est;                 // q, q_dot, X, X_dot
+  ControlOutput control;             // tau*, tau_pd, tau_ff, errors, internal part
   drivers::ActuatorCommand command;  // what was written to the drives (after safety)
   drivers::ActuatorFeedback feedback;
-  safety::SafetyReport safety;       // state, latched and new faults of this cycle
+  safety::SafetyReport safety;  // state, latched and new faults of this cycle
 };
 
 struct CycleConfig {
-  double period = 1e-3;          // [s]
-  double enable_timeout = 2.0;   // [s] to reach Operation Enabled on every drive
+  double period = 1e-3;           // [s]
+  double enable_timeout = 2.0;    // [s] to reach Operation Enabled on every drive
   safety::SafetyConfig safety{};  // the `safety:` section (defaults = config/dualv.yaml)
 };
 

@@ -112,8 +112,8 @@ void joint_acceleration(const Data& data, const Twist& X_dot, const Twist& X_dd,
   q_dd.noalias() += data.Jm_dot * X_dot;
 }
 
-FkResult forward_kinematics(const Model& model, Data& data, const JointVector& q,
-                            const Pose& seed, Pose& X, const FkOptions& options) noexcept {
+FkResult forward_kinematics(const Model& model, Data& data, const JointVector& q, const Pose& seed,
+                            Pose& X, const FkOptions& options) noexcept {
   FkResult result;
   X = seed;
   if (q.size() != model.n || !q.allFinite() || !finite(seed)) {
@@ -176,7 +176,7 @@ FkResult forward_kinematics(const Model& model, Data& data, const JointVector& q
   }
   // Every path above leaves `data` evaluated at `x` (the last residual taken was at x).
   result.residual = norm;
-  result.status = !converged                     ? Status::kNotConverged
+  result.status = !converged                    ? Status::kNotConverged
                   : norm > options.max_residual ? Status::kInconsistent
                                                 : Status::kOk;
   if (result.status == Status::kOk) X = x;

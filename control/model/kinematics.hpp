@@ -10,7 +10,8 @@ Status inverse_kinematics(const Model& model, Data& data, const Pose& X, JointVe
 
 // Inverse kinematics at X plus Jm and Jm_dot at (X, X_dot): fills data.q, data.q_dot,
 // data.Jm, data.Jm_dot, data.chain. Velocity closure: q_dot = Jm X_dot.
-Status update_kinematics(const Model& model, Data& data, const Pose& X, const Twist& X_dot) noexcept;
+Status update_kinematics(const Model& model, Data& data, const Pose& X,
+                         const Twist& X_dot) noexcept;
 
 // Joint accelerations for a plate acceleration, after update_kinematics:
 // q_dd = Jm X_dd + Jm_dot X_dot.
@@ -37,8 +38,8 @@ struct FkResult {
 // Forward kinematics: Gauss-Newton on Jm from `seed` (e.g. the previous pose), converging to
 // the least-squares pose when the n > 3 joint angles are not exactly consistent. On failure X
 // is left at `seed`; never NaN. Leaves `data` at the returned pose (Jm valid there).
-FkResult forward_kinematics(const Model& model, Data& data, const JointVector& q,
-                            const Pose& seed, Pose& X, const FkOptions& options = {}) noexcept;
+FkResult forward_kinematics(const Model& model, Data& data, const JointVector& q, const Pose& seed,
+                            Pose& X, const FkOptions& options = {}) noexcept;
 
 // Computes data.JmT_pinv, data.R and data.N from data.Jm (after update_kinematics).
 // R = Jm^{T*} Jm^T projects torques onto range(Jm); N = I - R holds internal forces.

@@ -4,13 +4,20 @@ namespace dualv::model {
 
 const char* to_string(Status s) noexcept {
   switch (s) {
-    case Status::kOk: return "ok";
-    case Status::kUnreachable: return "unreachable";
-    case Status::kSerialSingular: return "serial singularity";
-    case Status::kParallelSingular: return "parallel singularity";
-    case Status::kInvalidInput: return "invalid input";
-    case Status::kNotConverged: return "not converged";
-    case Status::kInconsistent: return "inconsistent joint angles";
+    case Status::kOk:
+      return "ok";
+    case Status::kUnreachable:
+      return "unreachable";
+    case Status::kSerialSingular:
+      return "serial singularity";
+    case Status::kParallelSingular:
+      return "parallel singularity";
+    case Status::kInvalidInput:
+      return "invalid input";
+    case Status::kNotConverged:
+      return "not converged";
+    case Status::kInconsistent:
+      return "inconsistent joint angles";
   }
   return "unknown";
 }

@@ -25,7 +25,8 @@ using Mat3 = Eigen::Matrix3d;
 // Sized n at run time, storage fixed at kMaxChains: never touches the heap.
 using JointVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxChains, 1>;
 using JointJacobian = Eigen::Matrix<double, Eigen::Dynamic, 3, 0, kMaxChains, 3>;  // n x 3
-using JointMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxChains, kMaxChains>;
+using JointMatrix =
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxChains, kMaxChains>;
 
 // A rigid link: mass [kg], rotational inertia about its centre of mass [kg m^2]
 // and the centre of mass in the link frame [m] (x along the link from its proximal joint).
@@ -48,7 +49,7 @@ struct Chain {
 struct Model {
   int n = 0;  // number of chains, 3..kMaxChains
   std::array<Chain, kMaxChains> chains{};
-  Body plate;  // link frame = plate frame (origin at p, rotated by theta)
+  Body plate;                   // link frame = plate frame (origin at p, rotated by theta)
   Vec2 gravity = Vec2::Zero();  // [m/s^2] in the plane of motion (zero: horizontal machine)
   Pose home = Pose::Zero();
   // Scale turning rotations into lengths when translations and rotations are
@@ -58,12 +59,12 @@ struct Model {
 
 enum class Status : std::uint8_t {
   kOk = 0,
-  kUnreachable,      // a chain cannot reach its anchor: |C - A| outside [|l1 - l2|, l1 + l2]
-  kSerialSingular,   // crank and coupler aligned: Jm not defined
-  kParallelSingular, // Jm^T Jm not invertible: the plate is not controlled
-  kInvalidInput,     // NaN/Inf input or a size that does not match the model
-  kNotConverged,     // forward kinematics ran out of iterations
-  kInconsistent,     // forward kinematics: no pose explains the n joint angles
+  kUnreachable,       // a chain cannot reach its anchor: |C - A| outside [|l1 - l2|, l1 + l2]
+  kSerialSingular,    // crank and coupler aligned: Jm not defined
+  kParallelSingular,  // Jm^T Jm not invertible: the plate is not controlled
+  kInvalidInput,      // NaN/Inf input or a size that does not match the model
+  kNotConverged,      // forward kinematics ran out of iterations
+  kInconsistent,      // forward kinematics: no pose explains the n joint angles
 };
 
 const char* to_string(Status s) noexcept;
@@ -81,16 +82,16 @@ struct Data {
   explicit Data(const Model& model);
   int n = 0;
   std::array<ChainState, kMaxChains> chain{};
-  JointVector q;        // crank angles [rad]
-  JointVector q_dot;    // [rad/s]
-  JointJacobian Jm;     // q_dot = Jm X_dot (n x 3)
-  JointJacobian Jm_dot; // d/dt Jm
-  JointJacobian JmT_pinv;  // Jm^{T*} = Jm (Jm^T Jm)^-1: minimum-norm solution of Jm^T tau = F
-  JointMatrix R;        // Jm^{T*} Jm^T: projector onto range(Jm) (paper eq. 19-20)
-  JointMatrix N;        // I - R: null space of Jm^T (internal forces)
-  Mat3 M = Mat3::Zero();   // task-space mass matrix M(X)
-  Twist h = Twist::Zero(); // Coriolis/centrifugal generalized force
-  Twist g = Twist::Zero(); // gravity generalized force (F_X = M X_dd + h + g)
+  JointVector q;            // crank angles [rad]
+  JointVector q_dot;        // [rad/s]
+  JointJacobian Jm;         // q_dot = Jm X_dot (n x 3)
+  JointJacobian Jm_dot;     // d/dt Jm
+  JointJacobian JmT_pinv;   // Jm^{T*} = Jm (Jm^T Jm)^-1: minimum-norm solution of Jm^T tau = F
+  JointMatrix R;            // Jm^{T*} Jm^T: projector onto range(Jm) (paper eq. 19-20)
+  JointMatrix N;            // I - R: null space of Jm^T (internal forces)
+  Mat3 M = Mat3::Zero();    // task-space mass matrix M(X)
+  Twist h = Twist::Zero();  // Coriolis/centrifugal generalized force
+  Twist g = Twist::Zero();  // gravity generalized force (F_X = M X_dd + h + g)
 };
 
 }  // namespace dualv::model

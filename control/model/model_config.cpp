@@ -14,8 +14,8 @@ Vec2 read_vec2(YamlReader& r, const std::string& key, std::optional<Vec2> fallba
   if (fallback) fb = std::vector<double>{fallback->x(), fallback->y()};
   const auto v = r.numbers(key, fb);
   if (v.size() != 2) {
-    r.problem(fmt::format("{}: must be a list of 2 numbers [x, y] (got {})", r.key_path(key),
-                          v.size()));
+    r.problem(
+        fmt::format("{}: must be a list of 2 numbers [x, y] (got {})", r.key_path(key), v.size()));
     return Vec2::Zero();
   }
   return {v[0], v[1]};
@@ -34,8 +34,9 @@ LinkParams read_link(YamlReader r, const LinkParams* defaults) {
   p.length = r.positive("length", fb(defaults ? defaults->length : 0));
   p.body.mass = r.non_negative("mass", fb(defaults ? defaults->body.mass : 0));
   p.body.inertia = r.non_negative("inertia", fb(defaults ? defaults->body.inertia : 0));
-  p.body.com = read_vec2(r, "com", defaults ? std::optional<Vec2>(defaults->body.com)
-                                            : std::optional<Vec2>(Vec2::Zero()));
+  p.body.com = read_vec2(
+      r, "com",
+      defaults ? std::optional<Vec2>(defaults->body.com) : std::optional<Vec2>(Vec2::Zero()));
   r.reject_unknown_keys();
   return p;
 }

@@ -72,7 +72,8 @@ TEST(ClosedLoop, ProjectionRemovesInternalTorqueFromEveryCommand) {
   const RunResult& without = runs().at("retimed-no-projection");
   ASSERT_TRUE(cfg.plant.mismatch.enabled);
   double worst_with = 0.0, worst_without = 0.0;
-  for (const Row& row : with.rows) worst_with = std::max(worst_with, internal_part(cfg.model, row, with.n));
+  for (const Row& row : with.rows)
+    worst_with = std::max(worst_with, internal_part(cfg.model, row, with.n));
   for (const Row& row : without.rows)
     worst_without = std::max(worst_without, internal_part(cfg.model, row, without.n));
   EXPECT_LT(worst_with, 1e-9);

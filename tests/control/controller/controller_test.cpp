@@ -132,9 +132,7 @@ TEST(Controller, InvalidReferenceCommandsZeroTorque) {
 }
 
 TEST(ControllerConfig, GainsPerJointOrScalarAndErrorsNamed) {
-  auto load = [](const std::string& text) {
-    return load_control_config(YAML::Load(text), 4);
-  };
+  auto load = [](const std::string& text) { return load_control_config(YAML::Load(text), 4); };
   const auto s = load("{kp: 1000, kd: [1, 2, 3, 4], velocity_cutoff_hz: 150}");
   EXPECT_EQ(s.controller.kp[3], 1000.0);
   EXPECT_EQ(s.controller.kd[2], 3.0);
@@ -157,7 +155,8 @@ TEST(ControllerConfig, GainsPerJointOrScalarAndErrorsNamed) {
             std::string::npos);
   EXPECT_NE(error("{kp: 1, kd: 1, velocity_cutoff_hz: 0}").find("velocity_cutoff_hz: must be > 0"),
             std::string::npos);
-  EXPECT_NE(error("{kp: 1, kd: 1, projection: maybe}").find("controller.projection: must be true or false"),
+  EXPECT_NE(error("{kp: 1, kd: 1, projection: maybe}")
+                .find("controller.projection: must be true or false"),
             std::string::npos);
 }
 

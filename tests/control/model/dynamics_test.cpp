@@ -34,10 +34,10 @@ std::vector<BodyPose> body_poses(const Model& m, const Pose& X) {
   for (int i = 0; i < m.n; ++i) {
     const Chain& ch = m.chains[i];
     const Vec2 B = ch.base + ch.crank_length * Vec2(std::cos(q[i]), std::sin(q[i]));
-    const Vec2 C = X.head<2>() + Vec2(std::cos(X.z()) * ch.plate_anchor.x() -
-                                          std::sin(X.z()) * ch.plate_anchor.y(),
-                                      std::sin(X.z()) * ch.plate_anchor.x() +
-                                          std::cos(X.z()) * ch.plate_anchor.y());
+    const Vec2 C =
+        X.head<2>() +
+        Vec2(std::cos(X.z()) * ch.plate_anchor.x() - std::sin(X.z()) * ch.plate_anchor.y(),
+             std::sin(X.z()) * ch.plate_anchor.x() + std::cos(X.z()) * ch.plate_anchor.y());
     const double phi = std::atan2(C.y() - B.y(), C.x() - B.x());
     const Vec2 c1 = place(ch.base, q[i], ch.crank.com);
     const Vec2 c2 = place(B, phi, ch.coupler.com);
@@ -86,8 +86,8 @@ double energy_rate_from_bodies(const Model& m, const SmoothPath& path, double t)
     const double vx = d1(fx), vy = d1(fy), w = d1(fa);
     const double ax = d2(fx), ay = d2(fy), al = d2(fa);
     const BodyPose& p = s[2][b];
-    rate += p.mass * (vx * ax + vy * ay) + p.inertia * w * al;      // dT/dt
-    rate -= p.mass * (m.gravity.x() * vx + m.gravity.y() * vy);    // dV/dt
+    rate += p.mass * (vx * ax + vy * ay) + p.inertia * w * al;   // dT/dt
+    rate -= p.mass * (m.gravity.x() * vx + m.gravity.y() * vy);  // dV/dt
   }
   return rate;
 }

@@ -1,0 +1,164 @@
+#!/usr/bin/env python3
+"""Checks a `candump -l` capture of a `dualv run --can` session (paper_hil.sh).
+
+Standard library only (runs with Debian's /usr/bin/python3 inside the user-mode-linux guest).
+Reads the `can:` and `safety:` sections of the configuration the run used, the run's own
+report (its stdout: "loop: K cycles ..." and "bus: N SYNCs sent (P before the program ...)")
+and the capture, and checks, on the frames only:
+  - SYNC (080h) count on the wire == SYNCs the master says it sent == P + K, i.e. one SYNC
+    per control cycle of the program plus the priming cycles before it
+  - every SYNC is preceded, since the previous SYNC, by exactly one RPDO1 (200h + node,
+    controlword u16 + target torque i16 in per mille of the rated torque 6076h, little
+    endian; firmware_if/pdo.hpp) from every configured drive: every drive's RPDO each cycle
+  - no target torque above the configured limit: min(safety.torque.max, the drive's
+    max_torque) in N m, from per mille with the drive's rated_torque (half an LSB allowed)
+  - the robot moved: some RPDO carries a non-zero torque with "enable operation" (0Fh)
+  - with --sto-after NODE:CODE (hex), the defined reaction to that drive's fault EMCY
+    (safety/fault.hpp: drive fault -> STO): from the third SYNC after the first EMCY
+    (80h + NODE) with that error code on, every target torque is 0, and every drive's last
+    RPDO carries torque 0 and a controlword that is not "enable operation" (disable voltage)
+Exit status 0 when everything holds, 1 otherwise (every problem is printed).
+"""
+import argparse
+import re
+import sys
+
+
+def parse_config(path):
+    text = open(path).read()
+    drives = []
+    for m in re.finditer(r"-\s*\{([^}]*node_id[^}]*)\}", text):
+        fields = dict(re.findall(r"(\w+):\s*([-0-9.eE+]+)", m.group(1)))
+        drives.append({
+            "node": int(fields["node_id"]),
+            "rated": float(fields["rated_torque"]),
+            "max": float(fields["max_torque"]),
+        })
+    if not drives:
+        raise SystemExit(f"check_paper_wire: no can.drives entries in {path}")
+    layout = re.search(r"\n\s+rpdo_layout:\s*(\w+)", text)
+    if layout and layout.group(1) != "per_drive":
+        raise SystemExit(f"check_paper_wire: rpdo_layout {layout.group(1)}: only per_drive is checked")
+    safety = text[text.index("\nsafety:"):]
+    torque = re.search(r"\n\s+torque:\s*\n\s+max:\s*([0-9.]+)", safety)
+    if not torque:
+        raise SystemExit(f"check_paper_wire: no safety.torque.max in {path}")
+    return drives, float(torque.group(1))
+
+
+def parse_run_log(path):
+    text = open(path).read()
+    loop = re.search(r"^loop: (\d+) cycles", text, re.M)
+    bus = re.search(r"^bus: (\d+) SYNCs sent \((\d+) before the program", text, re.M)
+    if not loop or not bus:
+        raise SystemExit(f"check_paper_wire: no 'loop:' / 'bus:' report in {path}")
+    return int(loop.group(1)), int(bus.group(1)), int(bus.group(2))
+
+
+def frames(path):
+    pat = re.compile(r"^\((\d+\.\d+)\)\s+(\S+)\s+([0-9A-Fa-f]+)#([0-9A-Fa-f]*)$")
+    for line in open(path):
+        m = pat.match(line.strip())
+        if m:
+            yield float(m.group(1)), int(m.group(3), 16), bytes.fromhex(m.group(4))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--config", required=True, help="the YAML the run used")
+    ap.add_argument("--run-log", required=True, help="stdout of `dualv run --can`")
+    ap.add_argument("--sto-after", metavar="NODE:CODE",
+                    help="expect STO after this drive's EMCY (e.g. 2:2310)")
+    ap.add_argument("capture", help="candump -l log")
+    a = ap.parse_args()
+    sto_cob = sto_code = None
+    if a.sto_after:
+        node, code = a.sto_after.split(":")
+        sto_cob, sto_code = 0x080 + int(node), int(code, 16)
+    drives, safety_max = parse_config(a.config)
+    cycles, syncs_sent, priming = parse_run_log(a.run_log)
+    by_cob = {0x200 + d["node"]: d for d in drives}
+    errors = []
+
+    syncs = 0
+    rpdos = 0
+    moving = 0
+    worst = 0.0
+    since_sync = {cob: 0 for cob in by_cob}
+    missing = duplicated = 0
+    emcy_at = None
+    syncs_after_emcy = 0
+    after = []
+    last = {}
+    for ts, cob, data in frames(a.capture):
+        if cob == sto_cob and len(data) == 8 and emcy_at is None and \
+                int.from_bytes(data[0:2], "little") == sto_code:
+            emcy_at = ts
+        if cob == 0x080:
+            syncs += 1
+            if emcy_at is not None:
+                syncs_after_emcy += 1
+            for c, k in since_sync.items():
+                if k == 0:
+                    missing += 1
+                    if missing <= 5:
+                        errors.append(f"{ts:.6f}: SYNC {syncs} without an RPDO {c:03X} since the previous SYNC")
+                elif k > 1:
+                    duplicated += 1
+                    if duplicated <= 5:
+                        errors.append(f"{ts:.6f}: SYNC {syncs} after {k} RPDOs {c:03X}")
+                since_sync[c] = 0
+            continue
+        d = by_cob.get(cob)
+        if d is None:
+            continue
+        if len(data) != 4:
+            errors.append(f"{ts:.6f} {cob:03X}: RPDO with {len(data)} bytes (expected 4)")
+            continue
+        rpdos += 1
+        since_sync[cob] += 1
+        cw = int.from_bytes(data[0:2], "little")
+        tq = int.from_bytes(data[2:4], "little", signed=True)
+        nm = tq * d["rated"] / 1000.0
+        limit = min(safety_max, d["max"])
+        worst = max(worst, abs(nm))
+        if abs(nm) > limit + 0.5 * d["rated"] / 1000.0:
+            errors.append(f"{ts:.6f} {cob:03X}: target torque {nm:.3f} N m above the limit {limit} N m")
+        if tq != 0 and (cw & 0x0F) == 0x0F:
+            moving += 1
+        last[cob] = (ts, cw, tq)
+        if emcy_at is not None and syncs_after_emcy >= 3 and tq != 0:
+            after.append(f"{ts:.6f} {cob:03X}: {nm:.3f} N m after the EMCY")
+    trailing = [f"{c:03X}" for c, k in since_sync.items() if k]
+    if trailing:
+        errors.append(f"RPDOs after the last SYNC from {', '.join(trailing)}")
+    if missing > 5 or duplicated > 5:
+        errors.append(f"{missing} missing and {duplicated} duplicated RPDOs in all")
+    if syncs != syncs_sent:
+        errors.append(f"{syncs} SYNCs on the wire but the master sent {syncs_sent}")
+    if syncs != priming + cycles:
+        errors.append(f"{syncs} SYNCs on the wire, expected {priming} (priming) + {cycles} "
+                      f"(control cycles) = {priming + cycles}")
+    if sto_cob is not None:
+        if emcy_at is None:
+            errors.append(f"no EMCY {sto_code:04X}h from {sto_cob:03X} on the wire")
+        else:
+            errors += after[:5]
+            for cob, (ts, cw, tq) in sorted(last.items()):
+                if tq != 0 or (cw & 0x0F) == 0x0F:
+                    errors.append(f"{cob:03X}: last RPDO at {ts:.6f}: controlword {cw:04X}, torque "
+                                  f"{tq} per mille (expected STO: torque 0, not enabled)")
+    if moving == 0:
+        errors.append("no RPDO with torque in Operation enabled: the robot never moved")
+    print(f"check_paper_wire: {syncs} SYNCs = {priming} priming + {cycles} control cycles "
+          f"(master: {syncs_sent}); {rpdos} RPDOs from {len(drives)} drives; "
+          f"max |target torque| {worst:.2f} N m (limit {safety_max} N m): "
+          f"{'STO after the EMCY, ' if emcy_at is not None else ''}"
+          f"{'ok' if not errors else 'FAILED'}")
+    for e in errors[:30]:
+        print("  " + e)
+    return 1 if errors else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
