@@ -24,6 +24,8 @@
 #include "control/trajectory/program.hpp"
 #include "drivers/canopen_actuator_set.hpp"
 #include "drivers/canopen_setup.hpp"
+#include "runtime/command_auth.hpp"
+#include "runtime/command_channel.hpp"
 #include "runtime/telemetry_publisher.hpp"
 
 namespace dualv::apps {
@@ -41,6 +43,8 @@ struct RunArgs {
   std::string can;
   bool move_hardware = false;
   std::string lcm;
+  std::string commands;
+  std::string keys;
 };
 
 std::string default_out_dir() {
@@ -116,6 +120,25 @@ int run(const RunArgs& args) {
   const std::string log_file = out + "/telemetry.lcmlog";
   runtime::TelemetryPublisher telemetry(args.lcm.empty() ? runtime::log_url(log_file) : args.lcm);
   telemetry.start();
+  // Operator commands: e-stop from anyone, stop/reset signed with a key from the key folder.
+  std::unique_ptr<runtime::CommandChannel> commands;
+  const std::string command_url = !args.commands.empty() ? args.commands : args.lcm;
+  if (!command_url.empty()) {
+    const std::string key_dir = args.keys.empty() ? default_config_dir() + "/keys" : args.keys;
+    std::vector<runtime::CommandKey> keys;
+    if (std::filesystem::is_directory(key_dir)) {
+      std::vector<std::string> warnings;
+      keys = runtime::load_command_keys(key_dir, &warnings);
+      for (const auto& w : warnings) fmt::print(stderr, "dualv run: {}\n", w);
+    }
+    fmt::print(
+        "dualv run: listening for operator commands on {} ({} key(s) from {}; e-stop needs "
+        "none)\n",
+        command_url, keys.size(), key_dir);
+    commands = std::make_unique<runtime::CommandChannel>(command_url,
+                                                         runtime::CommandVerifier(std::move(keys)));
+    commands->start();
+  }
   install_stop_signal_handlers();  // Ctrl-C: a controlled stop (SS1), not a dropped robot
   std::vector<RunResult> runs;
   // Frames sent before the program (boot, priming): the bus report below separates them.
@@ -123,6 +146,7 @@ int run(const RunArgs& args) {
   for (const auto& v : variants) {
     RunOptions opts;
     opts.telemetry = &telemetry;
+    opts.commands = commands.get();
     opts.fault_log_path = out + "/faults.jsonl";
     // A terminal gets one line rewritten in place; a log gets a line per second of robot time.
     const bool tty = isatty(fileno(stdout));
@@ -209,6 +233,10 @@ void register_run_command(CLI::App& app) {
   cmd->add_option("--lcm", args.lcm,
                   "Publish telemetry live on this LCM URL (e.g. udpm://239.255.76.67:7667?ttl=0) "
                   "instead of writing <out>/telemetry.lcmlog");
+  cmd->add_option("--commands", args.commands,
+                  "Receive operator commands (dualv estop/stop/reset) on this LCM URL (default: "
+                  "the --lcm URL when given)");
+  cmd->add_option("--keys", args.keys, "Folder of command keys (default: <config dir>/keys)");
   cmd->add_flag("--yes-move-hardware", args.move_hardware,
                 "Confirm that --can on a real (non-vcan) interface may move the robot");
   cmd->callback([] { exit_code() = run(args); });

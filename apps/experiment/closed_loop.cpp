@@ -235,7 +235,22 @@ RunResult run_program(const RobotConfig& config, const trajectory::Program& prog
   const std::int64_t progress_every = std::max<std::int64_t>(1, std::llround(0.5 / period));
   bool failed = false;
   control::CycleRecord failure_record;  // the cycle that first failed (copied once, set-up size)
+  std::uint64_t estops_seen = options.commands ? options.commands->estop_requests() : 0;
+  // Operator commands from LCM: an e-stop is never lost (a counter), stop and reset are queued.
+  auto take_commands = [&]() noexcept {
+    if (!options.commands) return;
+    const std::uint64_t estops = options.commands->estop_requests();
+    if (estops != estops_seen) cycle.safety().request_stop(safety::StopSource::kLcm);
+    estops_seen = estops;
+    runtime::VerifiedCommand cmd;
+    while (options.commands->try_pop(cmd)) {
+      if (cmd.kind == runtime::CommandKind::kStop)
+        cycle.safety().request_stop(safety::StopSource::kLcm);
+      if (cmd.kind == runtime::CommandKind::kReset) cycle.safety().request_reset();
+    }
+  };
   auto fn = [&](const control::CycleInfo& info) noexcept -> control::CycleResult {
+    take_commands();
     cycle.note_timing(info.skipped_releases > 0, info.consecutive_misses);
     const control::CycleStatus s = cycle.step(io, rec);
     const double internal = after_cycle ? after_cycle() : std::nan("");

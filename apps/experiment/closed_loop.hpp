@@ -11,6 +11,7 @@
 #include "control/loop/cycle_stats.hpp"
 #include "control/trajectory/program.hpp"
 #include "drivers/actuator_set.hpp"
+#include "runtime/command_channel.hpp"
 #include "runtime/telemetry_publisher.hpp"
 
 namespace dualv::apps {
@@ -71,6 +72,9 @@ struct RunOptions {
   // Telemetry (robot state every cycle, loop statistics at the end) goes to this publisher's
   // queue when set: an LCM log by default (`dualv run`), or live with --lcm URL.
   runtime::TelemetryPublisher* telemetry = nullptr;
+  // Operator commands (e-stop, stop, reset) received over LCM and verified; polled every
+  // cycle by the loop (lock-free) when set.
+  runtime::CommandChannel* commands = nullptr;
   // Safety events (fault log) are appended to this JSON-lines file by a non-RT thread when set.
   std::string fault_log_path;
   std::function<void(const std::string& variant, double t, double duration)> progress;
