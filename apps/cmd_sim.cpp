@@ -13,6 +13,7 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdint>
 #include <cstdio>
@@ -47,6 +48,7 @@ struct SimArgs {
   double exit_when_idle = -1.0;
   double status_every = 1.0;
   int rpdo_watchdog = -1;
+  double free_run_after = -1.0;
   bool segmented_upload = false;
 };
 
@@ -83,6 +85,8 @@ int run_sim(const SimArgs& a) {
   sim::DriveEmulatorConfig emu_cfg = sim::emulator_config_from(can);
   if (a.rpdo_watchdog >= 0)
     emu_cfg.rpdo_watchdog_cycles = static_cast<std::uint32_t>(a.rpdo_watchdog);
+  if (a.free_run_after >= 0)
+    emu_cfg.free_run_after_ns = static_cast<std::uint64_t>(std::llround(a.free_run_after * 1e9));
   emu_cfg.segmented_upload = a.segmented_upload;
   unsigned long fault_code = 0;
   try {
@@ -219,6 +223,9 @@ void register_sim_command(CLI::App& app) {
                   "Print a status line every S seconds (0: never)");
   cmd->add_option("--rpdo-watchdog", args->rpdo_watchdog,
                   "Drive-side RPDO watchdog in SYNC cycles (0: off; default 3)");
+  cmd->add_option("--free-run-after", args->free_run_after,
+                  "Advance the mechanism without SYNC (a dead master) after S seconds of silence "
+                  "(0: never; default 0.05)");
   cmd->add_flag("--segmented-upload", args->segmented_upload,
                 "Answer every SDO upload with a segmented transfer");
   cmd->callback([args] { exit_code() = run_sim(*args); });

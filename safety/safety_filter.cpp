@@ -165,7 +165,10 @@ void SafetyFilter::monitor(const drivers::ActuatorFeedback& fb, const SafetyInpu
     const drivers::DriveFeedback& df = fb.drive[k];
     if (df.stop_input) d.add(Fault::kEstopInput, i);
     if (df.state == DriveState::kOffline) d.add(Fault::kDriveLost, i);
-    if (df.state == DriveState::kFault) d.add(Fault::kDriveFault, i, df.last_emcy);
+    // A drive in Fault, or one that reports an active emergency (EMCY not yet cleared by an
+    // 0000h error reset, CiA 301 7.2.7) even before its statusword shows Fault.
+    if (df.state == DriveState::kFault || df.last_emcy != 0)
+      d.add(Fault::kDriveFault, i, df.last_emcy);
     // A drive that leaves Operation enabled on its own while the program runs (its quick
     // stop, its STO input, a transition it made itself): the others must not go on alone.
     if (report_.state == SafetyState::kOperational && all_enabled_seen_ &&

@@ -300,6 +300,15 @@ RunResult run_program(const RobotConfig& config, const trajectory::Program& prog
   // A failing enable phase must end too: bound the run to enabling time + program + settle.
   const control::RunReport report =
       executive.run(with_progress, total_cycles + std::llround(2.0 / period) + 1);
+  // Leave the drives disabled with zero torque (CiA 402 disable voltage), whatever the end:
+  // drives left in Operation enabled would otherwise wait for RPDOs that no longer come.
+  drivers::ActuatorCommand off;
+  off.n = result.n;
+  off.request = drivers::DriveRequest::kDisable;
+  for (int k = 0; k < 3; ++k) {
+    io.write(off);
+    if (paced) std::this_thread::sleep_for(std::chrono::duration<double>(period));
+  }
   result.loop = report.stats;
   if (options.telemetry) {
     runtime::LoopStatsSample ls;

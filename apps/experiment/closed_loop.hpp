@@ -66,8 +66,9 @@ struct RunResult {
 
 struct RunOptions {
   double settle_time = 0.2;  // [s] held at the final pose after the program
-  // false: simulated time, as fast as the CPU allows (deterministic); true: paced by the
-  // monotonic clock at the configured rate (SCHED_FIFO etc. when permitted), as on a target.
+  // In-process simulation only: false = simulated time, as fast as the CPU allows
+  // (deterministic); true = paced by the monotonic clock at the configured rate (SCHED_FIFO
+  // etc. when permitted), as on a target. Drives on a bus are always paced by the clock.
   bool realtime = false;
   // Telemetry (robot state every cycle, loop statistics at the end) goes to this publisher's
   // queue when set: an LCM log by default (`dualv run`), or live with --lcm URL.

@@ -23,6 +23,8 @@ import argparse
 import re
 import sys
 
+DISABLE_CYCLES = 3  # zero-torque disable cycles `dualv run` sends after a run
+
 
 def parse_config(path):
     text = open(path).read()
@@ -136,9 +138,12 @@ def main():
         errors.append(f"{missing} missing and {duplicated} duplicated RPDOs in all")
     if syncs != syncs_sent:
         errors.append(f"{syncs} SYNCs on the wire but the master sent {syncs_sent}")
-    if syncs != priming + cycles:
+    # After its last control cycle `dualv run` leaves the drives disabled with zero torque in
+    # DISABLE_CYCLES more cycles (apps/experiment/closed_loop.cpp, run_program).
+    if syncs != priming + cycles + DISABLE_CYCLES:
         errors.append(f"{syncs} SYNCs on the wire, expected {priming} (priming) + {cycles} "
-                      f"(control cycles) = {priming + cycles}")
+                      f"(control cycles) + {DISABLE_CYCLES} (disable) = "
+                      f"{priming + cycles + DISABLE_CYCLES}")
     if sto_cob is not None:
         if emcy_at is None:
             errors.append(f"no EMCY {sto_code:04X}h from {sto_cob:03X} on the wire")
@@ -151,6 +156,7 @@ def main():
     if moving == 0:
         errors.append("no RPDO with torque in Operation enabled: the robot never moved")
     print(f"check_paper_wire: {syncs} SYNCs = {priming} priming + {cycles} control cycles "
+          f"+ {DISABLE_CYCLES} disable "
           f"(master: {syncs_sent}); {rpdos} RPDOs from {len(drives)} drives; "
           f"max |target torque| {worst:.2f} N m (limit {safety_max} N m): "
           f"{'STO after the EMCY, ' if emcy_at is not None else ''}"
