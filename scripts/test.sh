@@ -22,8 +22,10 @@ bash scripts/package-test.sh --jobs "$jobs"
 
 if [ "${DUALV_SKIP_ASAN:-0}" != 1 ]; then
   echo "== sanitizer build (ASan + UBSan) =="
+  # Warnings are enforced by the release build above; GCC 12 reports false
+  # -Wmaybe-uninitialized positives in libstdc++ (std::regex) under the sanitizers.
   cmake -S . -B build/asan -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" \
-    -DDUALV_SANITIZE=ON -DDUALV_WERROR=ON \
+    -DDUALV_SANITIZE=ON -DDUALV_WERROR=OFF \
     -DDUALV_BUILD_BENCH=OFF >/dev/null
   cmake --build build/asan -j"$jobs"
   echo "== tests (ASan + UBSan) =="
