@@ -9,8 +9,10 @@
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "apps/commands.hpp"
@@ -45,7 +47,61 @@ struct RunArgs {
   std::string lcm;
   std::string commands;
   std::string keys;
+  bool serve = false;
 };
+
+// `dualv run --serve`: waits for signed start commands (`dualv start PROGRAM --key K`) and runs
+// each program (the proposed method) in turn. After a run that ended in a safety stop, or an
+// e-stop while idle, a start is refused until a signed reset: a reset never starts motion and
+// nothing moves again without both. Ends on SIGINT/SIGTERM while idle.
+int serve(const RobotConfig& cfg, runtime::CommandChannel& commands,
+          const std::function<RunResult(const trajectory::Program&)>& run_one) {
+  bool need_reset = false;
+  std::uint64_t estops = commands.estop_requests();
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // a service's log: one line at a time
+  fmt::print("dualv run: serving: waiting for `dualv start PROGRAM` (Ctrl-C to end)\n");
+  std::fflush(stdout);
+  for (;;) {
+    if (commands.estop_requests() != estops) {
+      estops = commands.estop_requests();
+      need_reset = true;
+      fmt::print("dualv run: e-stop received while idle: a reset is needed before a start\n");
+    }
+    runtime::VerifiedCommand cmd;
+    if (!commands.try_pop(cmd)) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      continue;
+    }
+    if (cmd.kind == runtime::CommandKind::kReset) {
+      need_reset = false;
+      fmt::print("dualv run: reset (key {}): a start command is accepted again\n", cmd.key_id);
+    } else if (cmd.kind == runtime::CommandKind::kStartProgram) {
+      if (need_reset) {
+        fmt::print("dualv run: start of '{}' refused: the last stop has not been reset\n",
+                   cmd.program);
+        continue;
+      }
+      std::string file = cmd.program;
+      if (!std::filesystem::exists(file)) file = default_config_dir() + "/" + cmd.program;
+      if (!std::filesystem::exists(file)) file += ".yaml";
+      try {
+        trajectory::ProgramContext ctx;
+        ctx.start = ctx.home = cfg.model.home;
+        ctx.workspace = cfg.trajectory.limits.workspace;
+        const trajectory::Program program = trajectory::load_program_file(file, ctx);
+        trajectory::preflight_or_throw(cfg.model, program, cfg.trajectory.limits);
+        fmt::print("dualv run: starting {} (key {})\n", file, cmd.key_id);
+        const RunResult r = run_one(program);
+        fmt::print("dualv run: {} {}{}\n", file, r.ok ? "done" : "STOPPED",
+                   r.ok ? "" : ": " + r.failure);
+        need_reset = need_reset || !r.ok;
+      } catch (const std::exception& e) {
+        fmt::print(stderr, "dualv run: start of '{}' refused: {}\n", cmd.program, e.what());
+      }
+    }
+    std::fflush(stdout);
+  }
+}
 
 std::string default_out_dir() {
   const std::time_t now = std::time(nullptr);
@@ -140,6 +196,21 @@ int run(const RunArgs& args) {
     commands->start();
   }
   install_stop_signal_handlers();  // Ctrl-C: a controlled stop (SS1), not a dropped robot
+  if (args.serve) {
+    if (!commands) {
+      fmt::print(stderr, "dualv run: --serve needs --commands URL (or --lcm URL)\n");
+      return 2;
+    }
+    return serve(cfg, *commands, [&](const trajectory::Program& p) {
+      RunOptions opts;
+      opts.telemetry = &telemetry;
+      opts.commands = commands.get();
+      opts.fault_log_path = out + "/faults.jsonl";
+      opts.realtime = true;
+      return drives ? run_program(cfg, p, paper_variants().front(), drives->actuators(), opts)
+                    : run_in_process(cfg, p, paper_variants().front(), opts);
+    });
+  }
   std::vector<RunResult> runs;
   // Frames sent before the program (boot, priming): the bus report below separates them.
   const std::uint64_t syncs_before = drives ? drives->actuators().counters().sync_sent : 0;
@@ -236,6 +307,8 @@ void register_run_command(CLI::App& app) {
   cmd->add_option("--commands", args.commands,
                   "Receive operator commands (dualv estop/stop/reset) on this LCM URL (default: "
                   "the --lcm URL when given)");
+  cmd->add_flag("--serve", args.serve,
+                "Wait for signed `dualv start PROGRAM` commands and run them (the service mode)");
   cmd->add_option("--keys", args.keys, "Folder of command keys (default: <config dir>/keys)");
   cmd->add_flag("--yes-move-hardware", args.move_hardware,
                 "Confirm that --can on a real (non-vcan) interface may move the robot");
