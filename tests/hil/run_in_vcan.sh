@@ -111,6 +111,12 @@ cmd_path=$(command -v -- "$1")
 if [[ -f "$cmd_path" ]] && grep -qa -e __asan_init "$cmd_path"; then
   asan_skip "$1"
 fi
+# A script that runs a program given as an argument (tests/hil/*.sh DUALV_BINARY ...).
+for arg in "${@:2}"; do
+  if [[ -f "$arg" && -x "$arg" ]] && grep -qa -e __asan_init "$arg"; then
+    asan_skip "$arg"
+  fi
+done
 
 uml=$(command -v linux.uml || true)
 if [[ -z "$uml" ]]; then
