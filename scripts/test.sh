@@ -15,7 +15,11 @@ echo "== release build (-Werror) =="
 cmake -S . -B build/release -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDUALV_WERROR=ON >/dev/null
 cmake --build build/release -j"$jobs"
 echo "== tests (release) =="
-ctest --test-dir build/release --output-on-failure -j"$jobs" --timeout 900
+ctest --test-dir build/release --output-on-failure -j"$jobs" --timeout 900 -LE hil
+# HIL tests boot a user-mode-linux guest whose timing is coarse (ms-scale stalls on a shared
+# machine): one at a time, and a case that fails is run once more (it must then pass).
+echo "== hardware-in-the-loop tests (vcan in user-mode-linux) =="
+ctest --test-dir build/release --output-on-failure --timeout 900 -L hil --repeat until-pass:2
 
 echo "== package: build the .deb, install it, run the installed dualv =="
 bash scripts/package-test.sh --jobs "$jobs"
