@@ -99,6 +99,16 @@ SdoStatus SdoClient::upload(CanBus& bus, std::uint16_t index, std::uint8_t subin
   return send_request(bus, fw::sdo_upload_initiate(node_, index, subindex), now_ns);
 }
 
+// The server confirmed the last download frame: done after the final segment, else the next.
+void SdoClient::download_acknowledged(CanBus& bus, std::uint64_t now_ns) noexcept {
+  if (last_segment_) {
+    status_ = SdoStatus::kDone;
+    phase_ = Phase::kNone;
+  } else {
+    send_next_segment(bus, now_ns);
+  }
+}
+
 SdoStatus SdoClient::send_next_segment(CanBus& bus, std::uint64_t now_ns) noexcept {
   const fw::SdoSegmentSender::Segment s = sender_.next();
   last_toggle_ = s.toggle;
@@ -135,12 +145,7 @@ bool SdoClient::on_frame(CanBus& bus, const fw::CanFrame& frame, std::uint64_t n
   switch (phase_) {
     case Phase::kDownloadInitiate:
       if (m.type != fw::SdoType::kDownloadInitiate) break;
-      if (last_segment_) {
-        status_ = SdoStatus::kDone;
-        phase_ = Phase::kNone;
-      } else {
-        send_next_segment(bus, now_ns);
-      }
+      download_acknowledged(bus, now_ns);
       return true;
     case Phase::kDownloadSegment:
       if (m.type != fw::SdoType::kDownloadSegment) break;
@@ -149,12 +154,7 @@ bool SdoClient::on_frame(CanBus& bus, const fw::CanFrame& frame, std::uint64_t n
              fw::Error::kToggleMismatch);
         return true;
       }
-      if (last_segment_) {
-        status_ = SdoStatus::kDone;
-        phase_ = Phase::kNone;
-      } else {
-        send_next_segment(bus, now_ns);
-      }
+      download_acknowledged(bus, now_ns);
       return true;
     case Phase::kUploadInitiate:
       if (m.type != fw::SdoType::kUploadInitiate) break;

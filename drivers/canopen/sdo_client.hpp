@@ -81,6 +81,7 @@ class SdoClient {
   SdoStatus send_request(CanBus& bus, const fw::Result<fw::CanFrame>& f,
                          std::uint64_t now_ns) noexcept;
   SdoStatus send_next_segment(CanBus& bus, std::uint64_t now_ns) noexcept;
+  void download_acknowledged(CanBus& bus, std::uint64_t now_ns) noexcept;
   void fail(CanBus& bus, SdoStatus status, std::uint32_t code, fw::Error e) noexcept;
 
   std::uint8_t node_ = 0;
