@@ -31,7 +31,8 @@ void print_model(const std::string& config, const std::vector<double>& pose_arg)
   if (!pose_arg.empty()) X = model::Pose(pose_arg[0], pose_arg[1], pose_arg[2]);
   fmt::print("config: {}\nchains: {}\npose X = [x {:.6f} m, y {:.6f} m, theta {:.6f} rad]{}\n",
              config, m.n, X.x(), X.y(), X.z(), pose_arg.empty() ? " (home)" : "");
-  const model::Status s = model::update_dynamics(m, data, X, model::Twist::Zero());
+  model::Status s = model::update_kinematics(m, data, X, model::Twist::Zero());
+  if (s == model::Status::kOk) s = model::update_dynamics(m, data, X, model::Twist::Zero());
   if (s != model::Status::kOk) {
     fmt::print("inside workspace: no ({})\n", model::to_string(s));
     exit_code() = 3;

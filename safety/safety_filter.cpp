@@ -2,10 +2,12 @@
 
 #include <fmt/format.h>
 
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
+
+#include "control/model/solve_spd3.hpp"
 
 namespace dualv::safety {
 
@@ -223,7 +225,8 @@ void SafetyFilter::monitor(const drivers::ActuatorFeedback& fb, const SafetyInpu
     else if (!c.workspace.theta.contains(X.z()))
       d.add(Fault::kWorkspace, -1, X.z(),
             X.z() < c.workspace.theta.lo ? c.workspace.theta.lo : c.workspace.theta.hi);
-    const model::Status ks = model::update_kinematics(*model_, data_, X, model::Twist::Zero());
+    const model::Status ks =
+        model::update_velocity_kinematics(*model_, data_, X, model::Twist::Zero());
     if (ks == model::Status::kOk) {
       const model::SingularityMeasures sm = model::singularity_measures(*model_, data_);
       if (sm.parallel < c.min_parallel_singularity)
@@ -233,8 +236,9 @@ void SafetyFilter::monitor(const drivers::ActuatorFeedback& fb, const SafetyInpu
       // Plate twist from the joint velocities: least squares of q_dot = Jm X_dot.
       model::JointVector qd(n_);
       for (int i = 0; i < n_; ++i) qd[i] = q_dot_[static_cast<std::size_t>(i)];
-      const model::Mat3 JtJ = data_.Jm.transpose() * data_.Jm;
-      const model::Twist Xd = JtJ.ldlt().solve(data_.Jm.transpose() * qd);
+      model::Ldlt3 ldlt;
+      model::Twist Xd = model::Twist::Constant(std::numeric_limits<double>::quiet_NaN());
+      if (ldlt.factor(data_.Jm.transpose() * data_.Jm)) ldlt.solve(data_.Jm.transpose() * qd, Xd);
       const double v = std::hypot(Xd.x(), Xd.y());
       if (std::isfinite(v) && v > c.max_plate_velocity)
         d.add(Fault::kPlateVelocity, -1, v, c.max_plate_velocity);

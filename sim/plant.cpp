@@ -230,8 +230,11 @@ void Plant::friction(const model::JointVector& q_dot, model::JointVector& f) con
   }
   for (int i = 0; i < true_model_.n; ++i) {
     const double z = q_dot[i] / fr.smoothing_velocity;
-    // tanh(z) rounds to +-1 for |z| > 19.1: skip the (slow) call there, same result.
-    const double sign = std::abs(z) > 19.5 ? std::copysign(1.0, z) : std::tanh(z);
+    // tanh(z) = 1 - 2 / (exp(2 z) + 1): one exp is several times cheaper than std::tanh
+    // (which goes through expm1) on this hot path; the cancellation near z = 0 costs an
+    // absolute 1e-16, nothing for a friction torque. It rounds to +-1 for |z| > 19.1.
+    const double sign =
+        std::abs(z) > 19.5 ? std::copysign(1.0, z) : 1.0 - 2.0 / (std::exp(2.0 * z) + 1.0);
     f[i] = fr.coulomb * sign + fr.viscous * q_dot[i];
   }
 }

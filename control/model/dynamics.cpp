@@ -43,7 +43,7 @@ void for_each_body(const Model& model, const Data& data, const Pose& X, const Tw
     const ChainState& cs = data.chain[i];
     const Eigen::RowVector3d jm = data.Jm.row(i);
     const double qd = data.q_dot[i];
-    const double qdd_bias = data.Jm_dot.row(i).dot(X_dot);  // q_dd = jm X_dd + qdd_bias
+    const double qdd_bias = data.qdd_bias[i];  // q_dd = jm X_dd + qdd_bias
 
     // Crank: rotates about A_i with angle q_i.
     const Vec2 rc1 = planar::rotate_along(cs.crank, ch.crank.com);
@@ -115,12 +115,14 @@ struct Sums {
 }  // namespace
 
 Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twist& X_dot) noexcept {
-  if (const Status s = update_kinematics(model, data, X, X_dot); s != Status::kOk) return s;
+  if (const Status s = update_velocity_kinematics(model, data, X, X_dot); s != Status::kOk)
+    return s;
   // The same bodies, Jacobians and biases as for_each_body (which the energies still use,
   // an independent check in the tests), in explicit scalar form: this runs 40 000 times
   // per simulated second in the plant's RK4.
   Sums S;
   const Vec2& grav = model.gravity;
+  const bool has_gravity = grav.x() != 0.0 || grav.y() != 0.0;  // zero: a horizontal machine
   const double th_dot = X_dot.z();
   {
     // Plate: v = p_dot + theta_dot E rc, omega = theta_dot.
@@ -134,23 +136,42 @@ Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twis
     b.bw = 0.0;
     accumulate(model.plate, b, grav, S);
   }
+  // Point masses riding on the plate at r_i (the couplers' shares at their anchors, below):
+  // sum m, sum m r, sum m |r|^2.
+  double pm = 0.0, pm_rr = 0.0;
+  Vec2 pm_r = Vec2::Zero();
   for (int i = 0; i < model.n; ++i) {
     const Chain& ch = model.chains[i];
     const ChainState& cs = data.chain[i];
     const Eigen::Vector3d jm = data.Jm.row(i).transpose();
     const double qd = data.q_dot[i];
-    const double qdd_bias = data.Jm_dot.row(i).dot(X_dot);  // q_dd = jm X_dd + qdd_bias
+    const double qdd_bias = data.qdd_bias[i];  // q_dd = jm X_dd + qdd_bias
     const Vec2& a = cs.crank;
     const Vec2& u = cs.coupler;
     const Vec2& r = cs.r;
+    const double l1 = ch.crank_length, l2 = ch.coupler_length;
+    // |u| = l2 (IK), and C_dot - B_dot = phi_dot E u: phi_dot = Jphi X_dot with
+    // Jphi = (E u)^T (C_dot - B_dot) / l2^2 = ((-u_y, u_x, u . r) - (u . a) jm) / l2^2.
+    const double inv_uu = 1.0 / (l2 * l2);
+    const Eigen::Vector3d Jphi =
+        (Eigen::Vector3d(-u.y(), u.x(), u.dot(r)) - u.dot(a) * jm) * inv_uu;
+    const Vec2 bias_B = perp(a) * qdd_bias - qd * qd * a;
+    const Vec2 bias_C = -th_dot * th_dot * r;
+    const double bias_phi = perp(u).dot(bias_C - bias_B) * inv_uu;
 
-    // Crank: a pure rotation about A_i, so its share collapses to the inertia about the
-    // axis, I_A = I + m |rc|^2: M += I_A jm jm^T, h += I_A qdd_bias jm (the centripetal
-    // term -qd^2 rc is orthogonal to E rc), g -= m (E rc . gravity) jm.
-    const Vec2 dir = a / ch.crank_length;  // |a| = l1 (IK)
-    const Vec2 rc1(dir.x() * ch.crank.com.x() - dir.y() * ch.crank.com.y(),
-                   dir.y() * ch.crank.com.x() + dir.x() * ch.crank.com.y());
-    const double IA = ch.crank.inertia + ch.crank.mass * rc1.squaredNorm();
+    // A coupler whose centre of mass lies on its axis, at d from the elbow, is exactly the
+    // point masses m (1 - d/l2) at B_i and m d/l2 at C_i plus the rotary inertia
+    // J = I - m d (l2 - d) (same mass, centre of mass and inertia about it): the share at
+    // B_i turns with the crank, the one at C_i rides on the plate. Off the axis, the general
+    // body form below.
+    const bool split = ch.coupler.com.y() == 0.0;
+    const double mB = split ? ch.coupler.mass * (1.0 - ch.coupler.com.x() / l2) : 0.0;
+
+    // Crank (+ the coupler's share at B_i): a pure rotation about A_i, so its share
+    // collapses to the inertia about the axis, I_A = I + m |rc|^2 + mB l1^2 (|rc| = |com|:
+    // a rotation keeps lengths): M += I_A jm jm^T, h += I_A qdd_bias jm (the centripetal
+    // terms are orthogonal to E rc and E a), g -= (m E rc + mB E a) . gravity jm.
+    const double IA = ch.crank.inertia + ch.crank.mass * ch.crank.com.squaredNorm() + mB * l1 * l1;
     const double a0 = IA * jm[0], a1 = IA * jm[1], a2 = IA * jm[2];
     S.m00 += a0 * jm[0];
     S.m01 += a0 * jm[1];
@@ -161,21 +182,39 @@ Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twis
     S.h0 += a0 * qdd_bias;
     S.h1 += a1 * qdd_bias;
     S.h2 += a2 * qdd_bias;
-    const double wg = ch.crank.mass * perp(rc1).dot(grav);
-    S.g0 -= wg * jm[0];
-    S.g1 -= wg * jm[1];
-    S.g2 -= wg * jm[2];
+    if (has_gravity) {
+      const Vec2 dir = a / l1;  // |a| = l1 (IK)
+      const Vec2 rc1(dir.x() * ch.crank.com.x() - dir.y() * ch.crank.com.y(),
+                     dir.y() * ch.crank.com.x() + dir.x() * ch.crank.com.y());
+      const double wg = (ch.crank.mass * perp(rc1) + mB * perp(a)).dot(grav);
+      S.g0 -= wg * jm[0];
+      S.g1 -= wg * jm[1];
+      S.g2 -= wg * jm[2];
+    }
 
-    // Coupler: angle phi of u = C_i - B_i. phi_dot = Jphi X_dot with
-    // Jphi = (E u)^T (C_dot - B_dot) / |u|^2 = ((-u_y, u_x, u . r) - (u . a) jm) / |u|^2.
-    const double inv_uu = 1.0 / u.squaredNorm();
-    const Eigen::Vector3d Jphi =
-        (Eigen::Vector3d(-u.y(), u.x(), u.dot(r)) - u.dot(a) * jm) * inv_uu;
-    const Vec2 bias_B = perp(a) * qdd_bias - qd * qd * a;
-    const Vec2 bias_C = -th_dot * th_dot * r;
+    if (split) {
+      const double d = ch.coupler.com.x();
+      const double mC = ch.coupler.mass * d / l2;
+      pm += mC;
+      pm_r += mC * r;
+      pm_rr += mC * ch.plate_anchor.squaredNorm();  // |r| = |c_i|
+      // Rotary share: M += J Jphi Jphi^T, h += J bias_phi Jphi (no gravity: no mass).
+      const double J = ch.coupler.inertia - ch.coupler.mass * d * (l2 - d);
+      const double j0 = J * Jphi[0], j1 = J * Jphi[1], j2 = J * Jphi[2];
+      S.m00 += j0 * Jphi[0];
+      S.m01 += j0 * Jphi[1];
+      S.m02 += j0 * Jphi[2];
+      S.m11 += j1 * Jphi[1];
+      S.m12 += j1 * Jphi[2];
+      S.m22 += j2 * Jphi[2];
+      S.h0 += j0 * bias_phi;
+      S.h1 += j1 * bias_phi;
+      S.h2 += j2 * bias_phi;
+      continue;
+    }
+    // General coupler: angle phi of u = C_i - B_i, centre of mass rc2 from B_i.
     const double phi_dot = Jphi.dot(X_dot);
-    const double bias_phi = perp(u).dot(bias_C - bias_B) * inv_uu;
-    const Vec2 udir = u / ch.coupler_length;  // |u| = l2 (IK)
+    const Vec2 udir = u / l2;
     const Vec2 rc2(udir.x() * ch.coupler.com.x() - udir.y() * ch.coupler.com.y(),
                    udir.y() * ch.coupler.com.x() + udir.x() * ch.coupler.com.y());
     BodyRows b;
@@ -189,6 +228,17 @@ Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twis
     b.bw = bias_phi;
     accumulate(ch.coupler, b, grav, S);
   }
+  // The point masses on the plate: v = p_dot + theta_dot E r, bias -theta_dot^2 r.
+  S.m00 += pm;
+  S.m11 += pm;
+  S.m02 -= pm_r.y();
+  S.m12 += pm_r.x();
+  S.m22 += pm_rr;
+  S.h0 -= th_dot * th_dot * pm_r.x();
+  S.h1 -= th_dot * th_dot * pm_r.y();
+  S.g0 -= pm * grav.x();
+  S.g1 -= pm * grav.y();
+  S.g2 -= perp(pm_r).dot(grav);
   data.M << S.m00, S.m01, S.m02, S.m01, S.m11, S.m12, S.m02, S.m12, S.m22;
   data.h << S.h0, S.h1, S.h2;
   data.g << S.g0, S.g1, S.g2;
@@ -209,9 +259,14 @@ Status inverse_dynamics(const Model& model, Data& data, const Pose& X, const Twi
   Twist F;
   if (const Status s = generalized_force(model, data, X, X_dot, X_dd, F); s != Status::kOk)
     return s;
-  if (const Status s = update_projectors(model, data); s != Status::kOk) return s;
+  // Paper eq. 3: tau = Jm^{T*} F_X = Jm (Jm^T Jm)^-1 F_X, by a solve instead of the projectors.
+  Ldlt3 ldlt;
+  if (!ldlt.factor(data.Jm.transpose() * data.Jm, kParallelSingularTolerance))
+    return Status::kParallelSingular;
+  Twist y;
+  ldlt.solve(F, y);
   tau.resize(model.n);
-  tau.noalias() = data.JmT_pinv * F;  // paper eq. 3: tau = Jm^{T*} F_X
+  tau.noalias() = data.Jm * y;
   return Status::kOk;
 }
 
@@ -225,7 +280,7 @@ Status forward_dynamics(const Model& model, Data& data, const Pose& X, const Twi
 }
 
 double kinetic_energy(const Model& model, Data& data, const Pose& X, const Twist& X_dot) noexcept {
-  if (update_kinematics(model, data, X, X_dot) != Status::kOk) return 0.0;
+  if (update_velocity_kinematics(model, data, X, X_dot) != Status::kOk) return 0.0;
   double T = 0.0;
   for_each_body(model, data, X, X_dot, [&](const Body& body, const BodyMotion& b) {
     const Eigen::Vector3d v = b.J * X_dot;
@@ -235,7 +290,7 @@ double kinetic_energy(const Model& model, Data& data, const Pose& X, const Twist
 }
 
 double potential_energy(const Model& model, Data& data, const Pose& X) noexcept {
-  if (update_kinematics(model, data, X, Twist::Zero()) != Status::kOk) return 0.0;
+  if (update_velocity_kinematics(model, data, X, Twist::Zero()) != Status::kOk) return 0.0;
   double V = 0.0;
   for_each_body(model, data, X, Twist::Zero(), [&](const Body& body, const BodyMotion& b) {
     V -= body.mass * model.gravity.dot(b.com);

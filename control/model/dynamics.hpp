@@ -8,7 +8,8 @@
 
 namespace dualv::model {
 
-// Fills data.M, data.h, data.g and the kinematics (data.q, Jm, Jm_dot, ...).
+// Fills data.M, data.h, data.g and the velocity kinematics (update_velocity_kinematics:
+// chain, Jm, q_dot, qdd_bias; not the joint angles data.q).
 Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twist& X_dot) noexcept;
 
 // Generalized force F_X = M X_dd + h + g needed for the motion (X, X_dot, X_dd).
@@ -16,7 +17,6 @@ Status generalized_force(const Model& model, Data& data, const Pose& X, const Tw
                          const Twist& X_dd, Twist& F) noexcept;
 
 // Minimum-norm joint torques [N m] realising (X, X_dot, X_dd): tau = Jm^{T*} F_X.
-// Also leaves data.R / data.N up to date.
 Status inverse_dynamics(const Model& model, Data& data, const Pose& X, const Twist& X_dot,
                         const Twist& X_dd, JointVector& tau) noexcept;
 

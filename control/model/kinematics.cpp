@@ -1,10 +1,10 @@
 #include "control/model/kinematics.hpp"
 
 #include <Eigen/Eigenvalues>
-#include <Eigen/LU>
 #include <cmath>
 
 #include "control/model/planar.hpp"
+#include "control/model/solve_spd3.hpp"
 
 namespace dualv::model {
 
@@ -16,12 +16,8 @@ namespace {
 // Below this |sin(crank, coupler)| the chain is treated as serially singular:
 // Jm's row would divide by ~0.
 constexpr double kSerialEpsilon = 1e-9;
-// Below this reciprocal condition number Jm^T Jm is treated as singular.
-constexpr double kParallelEpsilon = 1e-12;
 
 bool finite(const Eigen::Vector3d& v) noexcept { return v.allFinite(); }
-
-double wrap_angle(double a) noexcept { return std::remainder(a, 2.0 * M_PI); }
 
 // Pseudo-angle of v: strictly increasing with atan2(v.y, v.x) over (-pi, pi] (signed zeros
 // included), range (-2, 2], no transcendental call. Angles pi apart differ by exactly 2.
@@ -29,11 +25,9 @@ double pseudo_angle(const Vec2& v) noexcept {
   return std::copysign(1.0 - v.x() / (std::abs(v.x()) + std::abs(v.y())), v.y());
 }
 
-}  // namespace
-
-Status inverse_kinematics(const Model& model, Data& data, const Pose& X, JointVector& q) noexcept {
+// Chain positions at X: plate anchors, cranks, elbows, couplers (no joint angles: no atan2).
+Status chain_geometry(const Model& model, Data& data, const Pose& X) noexcept {
   if (!finite(X) || model.n < 3 || model.n > kMaxChains) return Status::kInvalidInput;
-  q.resize(model.n);
   const Vec2 p = X.head<2>();
   // One sine/cosine of theta for all chains (speed: this runs 4 times per RK4 step).
   const double c = std::cos(X.z()), s = std::sin(X.z());
@@ -55,27 +49,46 @@ Status inverse_kinematics(const Model& model, Data& data, const Pose& X, JointVe
     const double sin_gamma = std::sqrt((1.0 - cos_gamma) * (1.0 + cos_gamma));
     const Vec2 dh = d * (1.0 / dist);
     cs.crank = l1 * (cos_gamma * dh + (ch.working_mode * sin_gamma) * perp(dh));
-    // One atan2 gives q modulo 2 pi; keep the branch of atan2(d) + s_i gamma, which lies in
-    // (-2 pi, 2 pi]: it passed the atan2 cut iff the crank's angle is below (s_i = +1) or
-    // above (s_i = -1) the angle of d, i.e. by at least pi (pseudo-angles differ by >= 2).
-    double qi = std::atan2(cs.crank.y(), cs.crank.x());
-    const double dp = pseudo_angle(cs.crank) - pseudo_angle(d);
-    if (ch.working_mode > 0 && dp < -1.0) qi += 2.0 * M_PI;
-    if (ch.working_mode < 0 && dp > 1.0) qi -= 2.0 * M_PI;
-    q[i] = qi;
     cs.elbow = ch.base + cs.crank;
     cs.coupler = cs.anchor - cs.elbow;
   }
   return Status::kOk;
 }
 
-Status update_kinematics(const Model& model, Data& data, const Pose& X,
-                         const Twist& X_dot) noexcept {
+// Joint angles from the chain geometry.
+void joint_angles(const Model& model, const Data& data, JointVector& q) noexcept {
+  q.resize(model.n);
+  for (int i = 0; i < model.n; ++i) {
+    const ChainState& cs = data.chain[i];
+    const Vec2 d = cs.anchor - model.chains[i].base;
+    // One atan2 gives q modulo 2 pi; keep the branch of atan2(d) + s_i gamma, which lies in
+    // (-2 pi, 2 pi]: it passed the atan2 cut iff the crank's angle is below (s_i = +1) or
+    // above (s_i = -1) the angle of d, i.e. by at least pi (pseudo-angles differ by >= 2).
+    double qi = std::atan2(cs.crank.y(), cs.crank.x());
+    const double dp = pseudo_angle(cs.crank) - pseudo_angle(d);
+    const int mode = model.chains[i].working_mode;
+    if (mode > 0 && dp < -1.0) qi += 2.0 * M_PI;
+    if (mode < 0 && dp > 1.0) qi -= 2.0 * M_PI;
+    q[i] = qi;
+  }
+}
+
+// What jacobian() computes beyond Jm.
+enum class Parts : std::uint8_t {
+  kJm,          // Jm only (forward kinematics)
+  kVelocities,  // + q_dot = Jm X_dot and qdd_bias = Jm_dot X_dot (dynamics)
+  kAll,         // + the rows of Jm_dot
+};
+
+template <Parts P>
+Status jacobian(const Model& model, Data& data, const Twist& X_dot) noexcept {
   if (!finite(X_dot)) return Status::kInvalidInput;
-  if (const Status s = inverse_kinematics(model, data, X, data.q); s != Status::kOk) return s;
   data.Jm.resize(model.n, 3);
-  data.Jm_dot.resize(model.n, 3);
-  data.q_dot.resize(model.n);
+  if constexpr (P != Parts::kJm) {
+    data.q_dot.resize(model.n);
+    data.qdd_bias.resize(model.n);
+  }
+  if constexpr (P == Parts::kAll) data.Jm_dot.resize(model.n, 3);
   for (int i = 0; i < model.n; ++i) {
     const ChainState& cs = data.chain[i];
     const Vec2& a = cs.crank;
@@ -92,17 +105,54 @@ Status update_kinematics(const Model& model, Data& data, const Pose& X,
     const double inv_den = 1.0 / den;
     const Eigen::RowVector3d row = num * inv_den;
     data.Jm.row(i) = row;
-    const double qd = row.dot(X_dot);
-    data.q_dot[i] = qd;
-    // Time derivative of the row: d(num/den) = (num_dot - row den_dot) / den.
-    const Vec2 r_dot = X_dot.z() * perp(r);
-    const Vec2 a_dot = qd * perp(a);
-    const Vec2 u_dot = X_dot.head<2>() + r_dot - a_dot;
-    const Eigen::RowVector3d num_dot(u_dot.x(), u_dot.y(), cross(r_dot, u) + cross(r, u_dot));
-    const double den_dot = cross(a_dot, u) + cross(a, u_dot);
-    data.Jm_dot.row(i) = (num_dot - row * den_dot) * inv_den;
+    if constexpr (P != Parts::kJm) {
+      const double qd = row.dot(X_dot);
+      data.q_dot[i] = qd;
+      // Time derivative of the row: d(num/den) = (num_dot - row den_dot) / den.
+      const Vec2 r_dot = X_dot.z() * perp(r);
+      const Vec2 a_dot = qd * perp(a);
+      const Vec2 u_dot = X_dot.head<2>() + r_dot - a_dot;
+      const Eigen::RowVector3d num_dot(u_dot.x(), u_dot.y(), cross(r_dot, u) + cross(r, u_dot));
+      const double den_dot = cross(a_dot, u) + cross(a, u_dot);
+      const Eigen::RowVector3d row_dot = (num_dot - row * den_dot) * inv_den;
+      if constexpr (P == Parts::kAll) data.Jm_dot.row(i) = row_dot;
+      data.qdd_bias[i] = row_dot.dot(X_dot);
+    }
   }
   return Status::kOk;
+}
+
+// atan2(y, x) for x > 0 and |y| <= 0.01 x by its Taylor series (truncation below 1e-17 of
+// the result), std::atan2 otherwise: near convergence the forward kinematics' residual
+// angles are all tiny, and std::atan2 was a third of its cost.
+double small_angle_atan2(double y, double x) noexcept {
+  if (x > 0.0 && std::abs(y) <= 0.01 * x) {
+    const double t = y / x, t2 = t * t;
+    return t * (1.0 - t2 * (1.0 / 3.0 - t2 * (1.0 / 5.0 - t2 * (1.0 / 7.0))));
+  }
+  return std::atan2(y, x);
+}
+
+}  // namespace
+
+Status inverse_kinematics(const Model& model, Data& data, const Pose& X, JointVector& q) noexcept {
+  if (const Status s = chain_geometry(model, data, X); s != Status::kOk) return s;
+  joint_angles(model, data, q);
+  return Status::kOk;
+}
+
+Status update_kinematics(const Model& model, Data& data, const Pose& X,
+                         const Twist& X_dot) noexcept {
+  if (!finite(X_dot)) return Status::kInvalidInput;
+  if (const Status s = inverse_kinematics(model, data, X, data.q); s != Status::kOk) return s;
+  return jacobian<Parts::kAll>(model, data, X_dot);
+}
+
+Status update_velocity_kinematics(const Model& model, Data& data, const Pose& X,
+                                  const Twist& X_dot) noexcept {
+  if (!finite(X_dot)) return Status::kInvalidInput;
+  if (const Status s = chain_geometry(model, data, X); s != Status::kOk) return s;
+  return jacobian<Parts::kVelocities>(model, data, X_dot);
 }
 
 void joint_acceleration(const Data& data, const Twist& X_dot, const Twist& X_dd,
@@ -124,12 +174,19 @@ FkResult forward_kinematics(const Model& model, Data& data, const JointVector& q
   // chains and measured (quantised) q the equations are inconsistent: the iteration then
   // converges to the least-squares pose, where the step vanishes but the residual does not.
   // A step that leaves the workspace or does not reduce |e| is halved.
+  // e_i is the angle from the model's crank vector a_i(X) to the measured crank direction
+  // m_i = (cos q_i, sin q_i): wrapped by construction, and no joint angle (atan2) of the
+  // model is needed, only its geometry.
+  std::array<Vec2, kMaxChains> measured;
+  for (int i = 0; i < model.n; ++i) measured[i] = Vec2(std::cos(q[i]), std::sin(q[i]));
   Pose x = seed;
   JointVector e(model.n);
   auto residual = [&](const Pose& pose, double& norm) -> Status {
-    const Status s = update_kinematics(model, data, pose, Twist::Zero());
-    if (s != Status::kOk) return s;
-    for (int i = 0; i < model.n; ++i) e[i] = wrap_angle(q[i] - data.q[i]);
+    if (const Status s = chain_geometry(model, data, pose); s != Status::kOk) return s;
+    for (int i = 0; i < model.n; ++i) {
+      const Vec2& a = data.chain[i].crank;
+      e[i] = small_angle_atan2(cross(a, measured[i]), a.dot(measured[i]));
+    }
     norm = e.norm();
     return Status::kOk;
   };
@@ -139,21 +196,31 @@ FkResult forward_kinematics(const Model& model, Data& data, const JointVector& q
     return result;
   }
   bool converged = false;
+  bool jm_at_x = false;  // data.Jm evaluated at x
   for (int it = 1; it <= options.max_iterations && !converged; ++it) {
     result.iterations = it;
     if (norm <= options.tolerance) {
       converged = true;
       break;
     }
-    const Mat3 JtJ = data.Jm.transpose() * data.Jm;
-    const Eigen::FullPivLU<Mat3> lu(JtJ);
-    if (lu.rcond() < kParallelEpsilon) {
-      result.status = Status::kParallelSingular;
+    const Status js = jacobian<Parts::kJm>(model, data, Twist::Zero());
+    Ldlt3 ldlt;
+    if (js != Status::kOk ||
+        !ldlt.factor(data.Jm.transpose() * data.Jm, kParallelSingularTolerance)) {
+      result.status = js != Status::kOk ? js : Status::kParallelSingular;
       result.residual = norm;
       return result;
     }
-    const Twist step = lu.solve(data.Jm.transpose() * e);
+    jm_at_x = true;
+    Twist step;
+    ldlt.solve(data.Jm.transpose() * e, step);
     const double step_size = step.cwiseAbs().maxCoeff();
+    // Least-squares optimum (or round-off floor) reached: the step no longer moves X.
+    if (step_size < options.step_tolerance) {
+      converged = true;
+      break;
+    }
+    jm_at_x = false;
     const Pose x_prev = x;
     const double norm_prev = norm;
     double alpha = 1.0;
@@ -166,29 +233,39 @@ FkResult forward_kinematics(const Model& model, Data& data, const JointVector& q
         improved = true;
       }
     }
-    // Least-squares optimum (or round-off floor) reached: the step no longer moves X.
-    if (step_size < options.step_tolerance || !improved) {
+    // No step length reduces |e| (round-off floor): converged if the step was small.
+    if (!improved) {
       converged = step_size < 1e3 * options.step_tolerance;
-      if (!improved) residual(x_prev, norm);
-      x = improved ? x : x_prev;
+      residual(x_prev, norm);
+      x = x_prev;
       break;
     }
   }
-  // Every path above leaves `data` evaluated at `x` (the last residual taken was at x).
+  // The last residual taken was at x: data.chain and e are at x. Complete `data` there (at
+  // rest): Jm, and q on the measured angles' branch (q_ik = q - e).
   result.residual = norm;
+  const Status js =
+      converged && !jm_at_x ? jacobian<Parts::kJm>(model, data, Twist::Zero()) : Status::kOk;
   result.status = !converged                    ? Status::kNotConverged
+                  : js != Status::kOk           ? js
                   : norm > options.max_residual ? Status::kInconsistent
                                                 : Status::kOk;
-  if (result.status == Status::kOk) X = x;
+  if (result.status == Status::kOk) {
+    X = x;
+    data.q = q - e;
+    data.q_dot.setZero(model.n);
+    data.qdd_bias.setZero(model.n);
+    data.Jm_dot.setZero(model.n, 3);
+  }
   return result;
 }
 
 Status update_projectors(const Model& model, Data& data) noexcept {
-  const Mat3 JtJ = data.Jm.transpose() * data.Jm;
-  const Eigen::FullPivLU<Mat3> lu(JtJ);
-  if (lu.rcond() < kParallelEpsilon) return Status::kParallelSingular;
+  Ldlt3 ldlt;
+  if (!ldlt.factor(data.Jm.transpose() * data.Jm, kParallelSingularTolerance))
+    return Status::kParallelSingular;
   data.JmT_pinv.resize(model.n, 3);
-  data.JmT_pinv.noalias() = data.Jm * lu.inverse();
+  data.JmT_pinv.noalias() = data.Jm * ldlt.inverse();
   data.R.resize(model.n, model.n);
   data.R.noalias() = data.JmT_pinv * data.Jm.transpose();
   data.N = JointMatrix::Identity(model.n, model.n) - data.R;
@@ -200,7 +277,10 @@ SingularityMeasures singularity_measures(const Model& model, const Data& data) n
   JointJacobian scaled = data.Jm;
   scaled.col(2) /= model.characteristic_length;
   const Mat3 JtJ = scaled.transpose() * scaled;
-  const Eigen::SelfAdjointEigenSolver<Mat3> eig(JtJ, Eigen::EigenvaluesOnly);
+  // Closed form for 3x3 (the safety filter evaluates this every cycle); its absolute error,
+  // ~1e-15 of the largest eigenvalue, is far below any useful singularity threshold.
+  Eigen::SelfAdjointEigenSolver<Mat3> eig;
+  eig.computeDirect(JtJ, Eigen::EigenvaluesOnly);
   m.parallel = std::sqrt(std::max(0.0, eig.eigenvalues()[0]));
   m.min_serial = 1.0;
   for (int i = 0; i < model.n; ++i) {

@@ -4,14 +4,24 @@
 
 namespace dualv::model {
 
+// Jm^T Jm counts as singular (kParallelSingular) when a pivot of its LDL^T falls below this
+// times its largest diagonal entry (control/model/solve_spd3.hpp).
+inline constexpr double kParallelSingularTolerance = 1e-12;
+
 // q_i = atan2(C_i - A_i) + s_i acos((l1^2 + d^2 - l2^2) / (2 l1 d)), d = |C_i - A_i|.
 // Also fills data.chain[*] (anchors, elbows). q is resized to model.n.
 Status inverse_kinematics(const Model& model, Data& data, const Pose& X, JointVector& q) noexcept;
 
 // Inverse kinematics at X plus Jm and Jm_dot at (X, X_dot): fills data.q, data.q_dot,
-// data.Jm, data.Jm_dot, data.chain. Velocity closure: q_dot = Jm X_dot.
+// data.Jm, data.Jm_dot, data.qdd_bias, data.chain. Velocity closure: q_dot = Jm X_dot.
 Status update_kinematics(const Model& model, Data& data, const Pose& X,
                          const Twist& X_dot) noexcept;
+
+// What the dynamics need of update_kinematics, without the joint angles (atan2) and the
+// rows of Jm_dot: fills data.chain, data.Jm, data.q_dot and data.qdd_bias = Jm_dot X_dot;
+// leaves data.q and data.Jm_dot as they were.
+Status update_velocity_kinematics(const Model& model, Data& data, const Pose& X,
+                                  const Twist& X_dot) noexcept;
 
 // Joint accelerations for a plate acceleration, after update_kinematics:
 // q_dd = Jm X_dd + Jm_dot X_dot.
@@ -37,7 +47,8 @@ struct FkResult {
 
 // Forward kinematics: Gauss-Newton on Jm from `seed` (e.g. the previous pose), converging to
 // the least-squares pose when the n > 3 joint angles are not exactly consistent. On failure X
-// is left at `seed`; never NaN. Leaves `data` at the returned pose (Jm valid there).
+// is left at `seed`; never NaN. On success leaves `data` at the returned pose at rest
+// (chain, Jm; data.q = the model's angles on the branch of `q`; zero velocities).
 FkResult forward_kinematics(const Model& model, Data& data, const JointVector& q, const Pose& seed,
                             Pose& X, const FkOptions& options = {}) noexcept;
 

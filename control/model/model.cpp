@@ -28,6 +28,7 @@ Data::Data(const Model& model)
       q_dot(JointVector::Zero(model.n)),
       Jm(JointJacobian::Zero(model.n, 3)),
       Jm_dot(JointJacobian::Zero(model.n, 3)),
+      qdd_bias(JointVector::Zero(model.n)),
       JmT_pinv(JointJacobian::Zero(model.n, 3)),
       R(JointMatrix::Zero(model.n, model.n)),
       N(JointMatrix::Zero(model.n, model.n)) {}

@@ -86,6 +86,7 @@ struct Data {
   JointVector q_dot;        // [rad/s]
   JointJacobian Jm;         // q_dot = Jm X_dot (n x 3)
   JointJacobian Jm_dot;     // d/dt Jm
+  JointVector qdd_bias;     // Jm_dot X_dot: joint accelerations at zero plate acceleration
   JointJacobian JmT_pinv;   // Jm^{T*} = Jm (Jm^T Jm)^-1: minimum-norm solution of Jm^T tau = F
   JointMatrix R;            // Jm^{T*} Jm^T: projector onto range(Jm) (paper eq. 19-20)
   JointMatrix N;            // I - R: null space of Jm^T (internal forces)
