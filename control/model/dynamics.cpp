@@ -126,7 +126,9 @@ Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twis
   const double th_dot = X_dot.z();
   {
     // Plate: v = p_dot + theta_dot E rc, omega = theta_dot.
-    const Vec2 rc = planar::rotate(X.z(), model.plate.com);
+    const Vec2& cs = data.rotation;  // from the kinematics above: no second sin/cos
+    const Vec2& pc = model.plate.com;
+    const Vec2 rc(cs.x() * pc.x() - cs.y() * pc.y(), cs.y() * pc.x() + cs.x() * pc.y());
     BodyRows b;
     b.vx << 1.0, 0.0, -rc.y();
     b.vy << 0.0, 1.0, rc.x();

@@ -31,6 +31,7 @@ Status chain_geometry(const Model& model, Data& data, const Pose& X) noexcept {
   const Vec2 p = X.head<2>();
   // One sine/cosine of theta for all chains (speed: this runs 4 times per RK4 step).
   const double c = std::cos(X.z()), s = std::sin(X.z());
+  data.rotation = Vec2(c, s);
   for (int i = 0; i < model.n; ++i) {
     const Chain& ch = model.chains[i];
     ChainState& cs = data.chain[i];

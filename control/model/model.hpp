@@ -82,11 +82,12 @@ struct Data {
   explicit Data(const Model& model);
   int n = 0;
   std::array<ChainState, kMaxChains> chain{};
-  JointVector q;            // crank angles [rad]
-  JointVector q_dot;        // [rad/s]
-  JointJacobian Jm;         // q_dot = Jm X_dot (n x 3)
-  JointJacobian Jm_dot;     // d/dt Jm
-  JointVector qdd_bias;     // Jm_dot X_dot: joint accelerations at zero plate acceleration
+  Vec2 rotation = Vec2(1.0, 0.0);  // (cos theta, sin theta) of the plate, with chain[*]
+  JointVector q;                   // crank angles [rad]
+  JointVector q_dot;               // [rad/s]
+  JointJacobian Jm;                // q_dot = Jm X_dot (n x 3)
+  JointJacobian Jm_dot;            // d/dt Jm
+  JointVector qdd_bias;            // Jm_dot X_dot: joint accelerations at zero plate acceleration
   JointJacobian JmT_pinv;   // Jm^{T*} = Jm (Jm^T Jm)^-1: minimum-norm solution of Jm^T tau = F
   JointMatrix R;            // Jm^{T*} Jm^T: projector onto range(Jm) (paper eq. 19-20)
   JointMatrix N;            // I - R: null space of Jm^T (internal forces)
