@@ -376,7 +376,7 @@ TEST(CanopenHilEmulator, BootsEmulatedDrivesToOperationEnabled) {
   } reap{pid};
   // Its power-on boot-up messages say it is on the bus (bounded wait).
   bool up = false;
-  const std::uint64_t deadline = mono_ns() + 10'000'000'000ull;
+  const std::uint64_t deadline = mono_ns() + kPatience_ns;
   while (!up && mono_ns() < deadline) {
     (void)sniffer.wait_readable(std::chrono::milliseconds(10));
     for (const auto& f : drain(sniffer)) up = up || (f.id == 0x704 && f.dlc == 1 && f.data[0] == 0);
@@ -386,10 +386,14 @@ TEST(CanopenHilEmulator, BootsEmulatedDrivesToOperationEnabled) {
   CanConfig c = load_can_config_file(g_config);
   c.interface = kIface;
   c.rpdo_deadline_ns = 0;  // same reason as --rpdo-watchdog 0
-  c.drive_heartbeat_timeout_ns = 500'000'000;
-  c.master_heartbeat_timeout_ns = 500'000'000;
-  c.sdo_timeout_ns = 500'000'000;
-  c.boot_timeout_ns = 3'000'000'000;
+  // Far above any stall of either process (see hil_config()); the emulator consumes the
+  // master's heartbeat, so that timeout matters here too.
+  const CanConfig patient = hil_config();
+  c.drive_heartbeat_timeout_ns = patient.drive_heartbeat_timeout_ns;
+  c.master_heartbeat_timeout_ns = patient.master_heartbeat_timeout_ns;
+  c.sdo_timeout_ns = patient.sdo_timeout_ns;
+  c.boot_timeout_ns = patient.boot_timeout_ns;
+  c.transition_timeout_ns = patient.transition_timeout_ns;
   std::unique_ptr<CanopenDrives> d = open_canopen_drives(c);
   CanopenActuatorSet& set = d->actuators();
   ActuatorFeedback fb;
@@ -398,7 +402,10 @@ TEST(CanopenHilEmulator, BootsEmulatedDrivesToOperationEnabled) {
   std::uint64_t next = mono_ns();
   int enabled_at = -1;
   double q0 = 0.0;
-  for (int k = 0; k < 800; ++k) {
+  // Until 500 cycles of torque after all drives were enabled (however long that takes).
+  const std::uint64_t loop_deadline = next + kPatience_ns;
+  for (int k = 0; mono_ns() < loop_deadline; ++k) {
+    if (enabled_at >= 0 && k >= enabled_at + 500) break;
     next += 1'000'000;
     sleep_until(next);
     set.read(fb);
