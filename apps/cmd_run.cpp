@@ -28,6 +28,7 @@
 #include "drivers/canopen_setup.hpp"
 #include "runtime/command_auth.hpp"
 #include "runtime/command_channel.hpp"
+#include "runtime/service_notifier.hpp"
 #include "runtime/telemetry_publisher.hpp"
 
 namespace dualv::apps {
@@ -53,17 +54,30 @@ struct RunArgs {
 // `dualv run --serve`: waits for signed start commands (`dualv start PROGRAM --key K`) and runs
 // each program (the proposed method) in turn. After a run that ended in a safety stop, or an
 // e-stop while idle, a start is refused until a signed reset: a reset never starts motion and
-// nothing moves again without both. Ends on SIGINT/SIGTERM while idle.
+// nothing moves again without both. Ends on SIGINT/SIGTERM: at once while idle, after the
+// controlled stop (SS1) of a run in progress.
+//
+// systemd hears the state as STATUS= lines; while idle this loop is the watchdog's proof of
+// life (one beat per poll), while a program runs the control loop is (one beat per cycle).
 int serve(const RobotConfig& cfg, runtime::CommandChannel& commands,
+          runtime::ServiceNotifier& service,
           const std::function<RunResult(const trajectory::Program&)>& run_one) {
   bool need_reset = false;
   std::uint64_t estops = commands.estop_requests();
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // a service's log: one line at a time
   fmt::print("dualv run: serving: waiting for `dualv start PROGRAM` (Ctrl-C to end)\n");
   std::fflush(stdout);
+  service.ready("waiting for start");
   for (;;) {
+    service.beat();
+    if (stop_signal_received()) {
+      fmt::print("dualv run: stop signal: ending the service\n");
+      service.stopping("stopping: signal received");
+      return 0;
+    }
     if (commands.estop_requests() != estops) {
       estops = commands.estop_requests();
+      if (!need_reset) service.status("stopped: e-stop while idle; waiting for a signed reset");
       need_reset = true;
       fmt::print("dualv run: e-stop received while idle: a reset is needed before a start\n");
     }
@@ -75,6 +89,7 @@ int serve(const RobotConfig& cfg, runtime::CommandChannel& commands,
     if (cmd.kind == runtime::CommandKind::kReset) {
       need_reset = false;
       fmt::print("dualv run: reset (key {}): a start command is accepted again\n", cmd.key_id);
+      service.status("waiting for start");
     } else if (cmd.kind == runtime::CommandKind::kStartProgram) {
       if (need_reset) {
         fmt::print("dualv run: start of '{}' refused: the last stop has not been reset\n",
@@ -90,11 +105,17 @@ int serve(const RobotConfig& cfg, runtime::CommandChannel& commands,
         ctx.workspace = cfg.trajectory.limits.workspace;
         const trajectory::Program program = trajectory::load_program_file(file, ctx);
         trajectory::preflight_or_throw(cfg.model, program, cfg.trajectory.limits);
+        if (stop_signal_received()) continue;  // ending: start nothing new
         fmt::print("dualv run: starting {} (key {})\n", file, cmd.key_id);
+        const std::string name = std::filesystem::path(file).filename().string();
+        service.status(fmt::format("running {} (key {})", name, cmd.key_id));
         const RunResult r = run_one(program);
         fmt::print("dualv run: {} {}{}\n", file, r.ok ? "done" : "STOPPED",
                    r.ok ? "" : ": " + r.failure);
         need_reset = need_reset || !r.ok;
+        service.status(
+            r.ok ? fmt::format("waiting for start (last: {} done)", name)
+                 : fmt::format("stopped: {}: {}; waiting for a signed reset", name, r.failure));
       } catch (const std::exception& e) {
         fmt::print(stderr, "dualv run: start of '{}' refused: {}\n", cmd.program, e.what());
       }
@@ -111,6 +132,8 @@ std::string default_out_dir() {
 }
 
 int run(const RunArgs& args) {
+  // systemd's Type=notify protocol (does nothing outside systemd): READY=1 once set-up is done.
+  runtime::ServiceNotifier service;
   RobotConfig cfg = load_robot_config(resolve_config(args.config));
   if (args.rate_hz > 0.0) cfg.loop.period_ns = static_cast<std::int64_t>(1e9 / args.rate_hz + 0.5);
   const std::string program_file =
@@ -195,16 +218,18 @@ int run(const RunArgs& args) {
                                                          runtime::CommandVerifier(std::move(keys)));
     commands->start();
   }
-  install_stop_signal_handlers();  // Ctrl-C: a controlled stop (SS1), not a dropped robot
+  // Ctrl-C: a controlled stop (SS1), not a dropped robot; the idle service ends cleanly.
+  install_stop_signal_handlers(args.serve);
   if (args.serve) {
     if (!commands) {
       fmt::print(stderr, "dualv run: --serve needs --commands URL (or --lcm URL)\n");
       return 2;
     }
-    return serve(cfg, *commands, [&](const trajectory::Program& p) {
+    return serve(cfg, *commands, service, [&](const trajectory::Program& p) {
       RunOptions opts;
       opts.telemetry = &telemetry;
       opts.commands = commands.get();
+      opts.service = &service;
       opts.fault_log_path = out + "/faults.jsonl";
       opts.realtime = true;
       return drives ? run_program(cfg, p, paper_variants().front(), drives->actuators(), opts)
@@ -214,10 +239,15 @@ int run(const RunArgs& args) {
   std::vector<RunResult> runs;
   // Frames sent before the program (boot, priming): the bus report below separates them.
   const std::uint64_t syncs_before = drives ? drives->actuators().counters().sync_sent : 0;
+  const std::string program_name = std::filesystem::path(program_file).filename().string();
+  service.ready(fmt::format("starting {}", program_name));
   for (const auto& v : variants) {
+    if (stop_signal_received()) break;  // stopped by a signal: no further variant starts
+    service.status(fmt::format("running {} ({})", program_name, v.name));
     RunOptions opts;
     opts.telemetry = &telemetry;
     opts.commands = commands.get();
+    opts.service = &service;
     opts.fault_log_path = out + "/faults.jsonl";
     // A terminal gets one line rewritten in place; a log gets a line per second of robot time.
     const bool tty = isatty(fileno(stdout));
@@ -237,10 +267,19 @@ int run(const RunArgs& args) {
                r.ok ? "done" : "FAILED", r.wall_time, r.robot_time / std::max(r.wall_time, 1e-9),
                r.ok ? "" : ": " + r.failure);
   }
+  // The loop is over: systemd stops watching while the results are written.
+  std::string ending;
+  for (const auto& r : runs)
+    if (!r.ok && ending.empty()) ending = "stopped: " + r.variant.name + ": " + r.failure;
+  service.stopping(!ending.empty() ? ending
+                   : stop_signal_received()
+                       ? std::string("stopped: signal received")
+                       : fmt::format("finished {}: {} run(s) done", program_name, runs.size()));
   telemetry.stop();
   const runtime::TelemetryCounters tc = telemetry.counters();
   fmt::print("\n{}", summary_table(runs));
-  if (args.realtime || drives) fmt::print("\n{}", control::format_loop_stats(runs.back().loop));
+  if ((args.realtime || drives) && !runs.empty())
+    fmt::print("\n{}", control::format_loop_stats(runs.back().loop));
   if (drives) {
     // What crossed the bus, as the master counted it (the HIL tests compare it with candump).
     const drivers::CanopenActuatorSet& set = drives->actuators();

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# Builds the dualv .deb, installs it on this machine with dpkg -i, and runs the
-# installed binary: `dualv --version`, then (when the binary has a `run`
-# command) a short simulated `dualv run` that must find its configuration in
-# /etc/dualv. Removes the package again at the end unless --keep.
+# Builds the dualv .deb, installs it on this machine with dpkg -i, verifies the installed
+# systemd unit (systemd-analyze verify, when installed), and runs the installed binary:
+# `dualv --version`, then (when the binary has a `run` command) a short simulated
+# `dualv run` that must find its configuration in /etc/dualv. Removes the package again at the end unless --keep.
 #
 #   scripts/package-test.sh [--keep] [--build DIR] [--jobs N]
 #
@@ -68,6 +68,24 @@ cleanup() {
   fi
 }
 trap cleanup EXIT
+
+# The installed unit as systemd reads it (offline: needs no running systemd, so it works
+# in a CI container). verify exits 0 on values it ignores (a bad WatchdogSec=, a typo'd
+# key), naming the file and line: those fail the test too.
+unit=/usr/lib/systemd/system/dualv.service
+if command -v systemd-analyze >/dev/null 2>&1; then
+  say "systemd-analyze verify $unit"
+  verify_rc=0
+  verify_out=$(systemd-analyze verify "$unit" 2>&1) || verify_rc=$?
+  if [[ $verify_rc -ne 0 ]] || grep -q "dualv.service:" <<<"$verify_out"; then
+    echo "$verify_out" >&2
+    fail "systemd-analyze verify $unit (exit $verify_rc)"
+  fi
+  grep -qx "Type=notify" "$unit" || fail "$unit is not Type=notify"
+  grep -q "^WatchdogSec=" "$unit" || fail "$unit has no WatchdogSec="
+else
+  say "systemd-analyze not installed (package systemd): skipped verifying $unit"
+fi
 
 dualv=/usr/bin/dualv
 version=$("$dualv" --version)

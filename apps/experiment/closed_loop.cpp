@@ -61,12 +61,17 @@ void accumulate(SegmentMetrics& m, const Row& row, const Row* prev, int n, doubl
 }
 
 std::atomic<safety::SafetyFilter*> g_active_filter{nullptr};
+std::atomic<bool> g_stop_signal{false};
+std::atomic<bool> g_exit_when_idle{false};
+static_assert(std::atomic<bool>::is_always_lock_free);  // used from a signal handler
 
 extern "C" void on_stop_signal(int sig) {
+  g_stop_signal.store(true);
   safety::SafetyFilter* f = g_active_filter.load();
-  if (!f) {  // nothing is moving: leave as the signal's default would
-    std::signal(sig, SIG_DFL);
-    std::raise(sig);
+  if (!f) {
+    std::signal(sig, SIG_DFL);            // a second signal ends the process
+    if (g_exit_when_idle.load()) return;  // the idle --serve loop sees the flag and ends
+    std::raise(sig);                      // nothing is moving: leave as the signal's default would
     return;
   }
   f->request_stop(safety::StopSource::kSignal);  // lock-free, async-signal-safe
@@ -153,10 +158,13 @@ runtime::StateSample state_sample(const control::CycleRecord& rec, int n, bool s
 
 }  // namespace
 
-void install_stop_signal_handlers() {
+void install_stop_signal_handlers(bool exit_when_idle) {
+  g_exit_when_idle = exit_when_idle;
   std::signal(SIGINT, on_stop_signal);
   std::signal(SIGTERM, on_stop_signal);
 }
+
+bool stop_signal_received() noexcept { return g_stop_signal.load(); }
 
 void compute_metrics(const trajectory::Program& program, RunResult& r) {
   const auto& segs = program.segments();
@@ -227,6 +235,10 @@ RunResult run_program(const RobotConfig& config, const trajectory::Program& prog
       &mono);
   FaultLogDrain fault_drain(cycle.safety().log(), options);
   g_active_filter = &cycle.safety();
+  // A signal that came before the filter was registered above (while this run was being
+  // set up) found no run to stop: stop this one. Checked after registering, so a signal is
+  // seen here or by the handler, never by neither.
+  if (g_stop_signal.load()) cycle.safety().request_stop(safety::StopSource::kSignal);
   struct Deactivate {
     ~Deactivate() { g_active_filter = nullptr; }
   } deactivate;
@@ -250,6 +262,7 @@ RunResult run_program(const RobotConfig& config, const trajectory::Program& prog
     }
   };
   auto fn = [&](const control::CycleInfo& info) noexcept -> control::CycleResult {
+    if (options.service) options.service->beat();  // the watchdog's proof of life
     take_commands();
     cycle.note_timing(info.skipped_releases > 0, info.consecutive_misses);
     const control::CycleStatus s = cycle.step(io, rec);

@@ -12,6 +12,7 @@
 #include "control/trajectory/program.hpp"
 #include "drivers/actuator_set.hpp"
 #include "runtime/command_channel.hpp"
+#include "runtime/service_notifier.hpp"
 #include "runtime/telemetry_publisher.hpp"
 
 namespace dualv::apps {
@@ -78,6 +79,9 @@ struct RunOptions {
   runtime::CommandChannel* commands = nullptr;
   // Safety events (fault log) are appended to this JSON-lines file by a non-RT thread when set.
   std::string fault_log_path;
+  // Every cycle calls its beat() (an atomic add) when set: the systemd watchdog pings only
+  // while the loop runs, so a hung loop gets the service killed.
+  runtime::ServiceNotifier* service = nullptr;
   std::function<void(const std::string& variant, double t, double duration)> progress;
 };
 
@@ -95,8 +99,12 @@ RunResult run_program(const RobotConfig& config, const trajectory::Program& prog
                       const std::function<double()>& after_cycle = {});
 
 // SIGINT / SIGTERM request a safety stop (SS1) of the run in progress; a second signal, or a
-// signal while no run is active, ends the process at once.
-void install_stop_signal_handlers();
+// signal while no run is active, ends the process at once, unless `exit_when_idle`: then a
+// signal while no run is active only sets stop_signal_received() (the --serve loop polls it
+// and ends cleanly, telling systemd STOPPING=1).
+void install_stop_signal_handlers(bool exit_when_idle = false);
+// True once SIGINT or SIGTERM arrived (during a run or, with exit_when_idle, between runs).
+bool stop_signal_received() noexcept;
 
 // Metrics from rows (used for any backend: in-process, CAN).
 void compute_metrics(const trajectory::Program& program, RunResult& result);
