@@ -47,7 +47,9 @@ log_has "serving: waiting" 20 || fail "no service"
 "$dualv" stream --key "$tmp/keys/lab1.key" --lcm "$url" --circle 0.01 --rate 100 \
   --duration 2 >"$tmp/stream1.log" 2>&1 || fail "dualv stream failed: $(cat "$tmp/stream1.log")"
 log_has "stream done" 20 || fail "a stream ended by its stop did not end normally"
-grep -q '"event":"fault"' "$tmp/out/faults.jsonl" 2>/dev/null && fail "a normal stream logged a fault"
+# (deadline misses are logged as warnings in the guest: only a stop counts)
+grep '"event":"fault"' "$tmp/out/faults.jsonl" 2>/dev/null | grep -qE '"reaction":"(SS1|STO)"' &&
+  fail "a normal stream logged a stopping fault"
 followed=$(sed -nE 's/.*stream done; setpoints: ([0-9]+) followed.*/\1/p' "$tmp/run.log")
 [[ -n "$followed" && "$followed" -gt 50 ]] || fail "too few setpoints followed: '$followed'"
 
@@ -55,7 +57,10 @@ followed=$(sed -nE 's/.*stream done; setpoints: ([0-9]+) followed.*/\1/p' "$tmp/
 "$dualv" stream --key "$tmp/keys/lab1.key" --lcm "$url" --circle 0.01 --rate 100 \
   --duration 0 >"$tmp/stream2.log" 2>&1 &
 streamer=$!
-log_has "starting stream" 10 || fail "the second stream did not start"
+for ((i = 0; i < 200; ++i)); do
+  [[ $(grep -c "starting stream" "$tmp/run.log") -ge 2 ]] && break
+  sleep 0.05
+done
 [[ $(grep -c "starting stream" "$tmp/run.log") -eq 2 ]] || fail "the second stream did not start"
 sleep 2
 grep -q "stream STOPPED" "$tmp/run.log" && fail "the stream stopped while it was still sent"
