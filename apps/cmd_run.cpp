@@ -22,10 +22,12 @@
 #include "apps/experiment/robot_config.hpp"
 #include "common/yaml_reader.hpp"
 #include "control/loop/cycle_stats.hpp"
+#include "control/model/kinematics.hpp"
 #include "control/trajectory/preflight.hpp"
 #include "control/trajectory/program.hpp"
 #include "drivers/canopen_actuator_set.hpp"
 #include "drivers/canopen_setup.hpp"
+#include "runtime/channels.hpp"
 #include "runtime/command_auth.hpp"
 #include "runtime/command_channel.hpp"
 #include "runtime/service_notifier.hpp"
@@ -51,17 +53,22 @@ struct RunArgs {
   bool serve = false;
 };
 
+// The program name of `dualv start` that starts a streaming run instead of a program file.
+constexpr const char* kStreamProgram = "stream";
+
 // `dualv run --serve`: waits for signed start commands (`dualv start PROGRAM --key K`) and runs
-// each program (the proposed method) in turn. After a run that ended in a safety stop, or an
-// e-stop while idle, a start is refused until a signed reset: a reset never starts motion and
-// nothing moves again without both. Ends on SIGINT/SIGTERM: at once while idle, after the
-// controlled stop (SS1) of a run in progress.
+// each program (the proposed method) in turn; `dualv start stream` runs a stream of signed
+// setpoints (`dualv stream`) until a signed stop or until the stream goes silent (SS1). After a
+// run that ended in a safety stop, or an e-stop while idle, a start is refused until a signed
+// reset: a reset never starts motion and nothing moves again without both. Ends on
+// SIGINT/SIGTERM: at once while idle, after the controlled stop (SS1) of a run in progress.
+// `run_one(nullptr)` runs a stream.
 //
 // systemd hears the state as STATUS= lines; while idle this loop is the watchdog's proof of
 // life (one beat per poll), while a program runs the control loop is (one beat per cycle).
 int serve(const RobotConfig& cfg, runtime::CommandChannel& commands,
           runtime::ServiceNotifier& service,
-          const std::function<RunResult(const trajectory::Program&)>& run_one) {
+          const std::function<RunResult(const trajectory::Program*)>& run_one) {
   bool need_reset = false;
   std::uint64_t estops = commands.estop_requests();
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // a service's log: one line at a time
@@ -81,6 +88,10 @@ int serve(const RobotConfig& cfg, runtime::CommandChannel& commands,
       need_reset = true;
       fmt::print("dualv run: e-stop received while idle: a reset is needed before a start\n");
     }
+    // Setpoints while no stream runs move nothing: drop them, so a stream starts from fresh ones.
+    runtime::VerifiedSetpoint stale;
+    while (commands.try_pop_setpoint(stale)) {
+    }
     runtime::VerifiedCommand cmd;
     if (!commands.try_pop(cmd)) {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -96,6 +107,28 @@ int serve(const RobotConfig& cfg, runtime::CommandChannel& commands,
                    cmd.program);
         continue;
       }
+      if (std::string(cmd.program) == kStreamProgram) {
+        fmt::print("dualv run: starting stream (key {}): following signed setpoints on {}\n",
+                   cmd.key_id, runtime::kSetpointChannel);
+        std::fflush(stdout);
+        service.status(fmt::format("streaming (key {})", cmd.key_id));
+        try {
+          const RunResult r = run_one(nullptr);
+          fmt::print(
+              "dualv run: stream {}{}; setpoints: {} followed, {} refused by the loop, {} refused "
+              "on receipt\n",
+              r.ok ? "done" : "STOPPED", r.ok ? "" : ": " + r.failure, r.stream.accepted,
+              r.stream.refused, commands.setpoints_refused());
+          need_reset = need_reset || !r.ok;
+          service.status(
+              r.ok ? std::string("waiting for start (last: stream done)")
+                   : fmt::format("stopped: stream: {}; waiting for a signed reset", r.failure));
+        } catch (const std::exception& e) {
+          fmt::print(stderr, "dualv run: stream refused: {}\n", e.what());
+        }
+        std::fflush(stdout);
+        continue;
+      }
       std::string file = cmd.program;
       if (!std::filesystem::exists(file)) file = default_config_dir() + "/" + cmd.program;
       if (!std::filesystem::exists(file)) file += ".yaml";
@@ -109,7 +142,7 @@ int serve(const RobotConfig& cfg, runtime::CommandChannel& commands,
         fmt::print("dualv run: starting {} (key {})\n", file, cmd.key_id);
         const std::string name = std::filesystem::path(file).filename().string();
         service.status(fmt::format("running {} (key {})", name, cmd.key_id));
-        const RunResult r = run_one(program);
+        const RunResult r = run_one(&program);
         fmt::print("dualv run: {} {}{}\n", file, r.ok ? "done" : "STOPPED",
                    r.ok ? "" : ": " + r.failure);
         need_reset = need_reset || !r.ok;
@@ -122,6 +155,28 @@ int serve(const RobotConfig& cfg, runtime::CommandChannel& commands,
     }
     std::fflush(stdout);
   }
+}
+
+// What a streamed setpoint must satisfy beyond its signature, checked on receipt (and logged
+// there when refused): inside trajectory.limits.workspace (the loop checks that again), a pose
+// the model reaches, away from singularities by the pre-flight margins.
+runtime::CommandChannel::SetpointCheck setpoint_check(const RobotConfig& cfg) {
+  auto data = std::make_shared<model::Data>(cfg.model);
+  return [&cfg, data](double x, double y, double theta) -> std::string {
+    const trajectory::Limits& l = cfg.trajectory.limits;
+    if (!l.workspace.x.contains(x) || !l.workspace.y.contains(y) ||
+        !l.workspace.theta.contains(theta))
+      return fmt::format("({:.4f}, {:.4f}, {:.4f}) is outside trajectory.limits.workspace", x, y,
+                         theta);
+    const model::Pose X(x, y, theta);
+    const model::Status st = model::update_kinematics(cfg.model, *data, X, model::Twist::Zero());
+    if (st != model::Status::kOk)
+      return fmt::format("({:.4f}, {:.4f}, {:.4f}): {}", x, y, theta, model::to_string(st));
+    const model::SingularityMeasures m = model::singularity_measures(cfg.model, *data);
+    if (m.parallel < l.min_parallel_singularity || m.min_serial < l.min_serial_singularity)
+      return fmt::format("({:.4f}, {:.4f}, {:.4f}) is too close to a singularity", x, y, theta);
+    return {};
+  };
 }
 
 std::string default_out_dir() {
@@ -216,6 +271,7 @@ int run(const RunArgs& args) {
         command_url, keys.size(), key_dir);
     commands = std::make_unique<runtime::CommandChannel>(command_url,
                                                          runtime::CommandVerifier(std::move(keys)));
+    commands->set_setpoint_check(setpoint_check(cfg));
     commands->start();
   }
   // Ctrl-C: a controlled stop (SS1), not a dropped robot; the idle service ends cleanly.
@@ -225,15 +281,18 @@ int run(const RunArgs& args) {
       fmt::print(stderr, "dualv run: --serve needs --commands URL (or --lcm URL)\n");
       return 2;
     }
-    return serve(cfg, *commands, service, [&](const trajectory::Program& p) {
+    return serve(cfg, *commands, service, [&](const trajectory::Program* p) {
       RunOptions opts;
       opts.telemetry = &telemetry;
       opts.commands = commands.get();
       opts.service = &service;
       opts.fault_log_path = out + "/faults.jsonl";
       opts.realtime = true;
-      return drives ? run_program(cfg, p, paper_variants().front(), drives->actuators(), opts)
-                    : run_in_process(cfg, p, paper_variants().front(), opts);
+      if (!p)
+        return drives ? run_stream(cfg, drives->actuators(), opts)
+                      : run_stream_in_process(cfg, opts);
+      return drives ? run_program(cfg, *p, paper_variants().front(), drives->actuators(), opts)
+                    : run_in_process(cfg, *p, paper_variants().front(), opts);
     });
   }
   std::vector<RunResult> runs;
@@ -347,7 +406,9 @@ void register_run_command(CLI::App& app) {
                   "Receive operator commands (dualv estop/stop/reset) on this LCM URL (default: "
                   "the --lcm URL when given)");
   cmd->add_flag("--serve", args.serve,
-                "Wait for signed `dualv start PROGRAM` commands and run them (the service mode)");
+                "Wait for signed `dualv start PROGRAM` commands and run them (the service mode); "
+                "`dualv start stream` follows signed setpoints from `dualv stream` until a signed "
+                "stop, or stops (SS1) when they cease for safety.watchdogs.command_stream_timeout");
   cmd->add_option("--keys", args.keys, "Folder of command keys (default: <config dir>/keys)");
   cmd->add_flag("--yes-move-hardware", args.move_hardware,
                 "Confirm that --can on a real (non-vcan) interface may move the robot");

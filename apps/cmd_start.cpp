@@ -21,7 +21,9 @@ void register_start_command(CLI::App& app) {
   static std::string url = runtime::kLiveUrl;
   static std::string key_file;
   static std::string program;
-  cmd->add_option("program", program, "Program name, as `dualv run` knows it")->required();
+  cmd->add_option("program", program,
+                  "Program name, as `dualv run` knows it; `stream`: follow `dualv stream`")
+      ->required();
   cmd->add_option("--lcm", url, "LCM URL of the robot")->capture_default_str();
   cmd->add_option("--key", key_file,
                   "Key file (32 bytes; its name without extension is the key id)")

@@ -17,6 +17,7 @@ void register_status_command(CLI::App& app);
 void register_estop_command(CLI::App& app);
 void register_reset_command(CLI::App& app);
 void register_start_command(CLI::App& app);
+void register_stream_command(CLI::App& app);
 void register_check_target_command(CLI::App& app);
 void register_sim_command(CLI::App& app);
 void register_selftest_command(CLI::App& app);

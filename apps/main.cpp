@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
   dualv::apps::register_estop_command(app);
   dualv::apps::register_reset_command(app);
   dualv::apps::register_start_command(app);
+  dualv::apps::register_stream_command(app);
   dualv::apps::register_check_target_command(app);
   dualv::apps::register_sim_command(app);
   dualv::apps::register_selftest_command(app);

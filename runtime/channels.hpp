@@ -6,6 +6,7 @@ inline constexpr const char* kStateChannel = "DUALV_STATE";           // robot_s
 inline constexpr const char* kFaultChannel = "DUALV_FAULT";           // fault_event_t
 inline constexpr const char* kLoopStatsChannel = "DUALV_LOOP_STATS";  // loop_stats_t
 inline constexpr const char* kCommandChannel = "DUALV_COMMAND";       // command_t
+inline constexpr const char* kSetpointChannel = "DUALV_SETPOINT";     // setpoint_t (streaming)
 
 // Multicast confined to the host (ttl=0): the URL `dualv run --lcm` and the
 // CLI use for live data. LCM's own default also uses this group and port.

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -33,12 +34,52 @@ int hex_value(char c) {
   return -1;
 }
 
-std::vector<unsigned char> signing_payload(const dualv_lcm::command_t& cmd) {
-  dualv_lcm::command_t unsigned_copy = cmd;
+// Any signed LCM message (command_t, setpoint_t): its encoding with the hmac zeroed. The
+// encoding starts with the type's fingerprint, so a signature never verifies for another type.
+template <class Msg>
+std::vector<unsigned char> signing_payload(const Msg& msg) {
+  Msg unsigned_copy = msg;
   std::fill(std::begin(unsigned_copy.hmac), std::end(unsigned_copy.hmac), 0);
   std::vector<unsigned char> buf(static_cast<std::size_t>(unsigned_copy.getEncodedSize()));
   unsigned_copy.encode(buf.data(), 0, static_cast<int>(buf.size()));
   return buf;
+}
+
+template <class Msg>
+void sign_message(Msg& msg, const CommandKey& key) {
+  init_sodium();
+  msg.key_id = key.id;
+  const std::vector<unsigned char> payload = signing_payload(msg);
+  crypto_auth_hmacsha256(reinterpret_cast<unsigned char*>(msg.hmac), payload.data(), payload.size(),
+                         key.bytes.data());
+}
+
+// Decodes an LCM payload that must be exactly one canonical `Msg`; else false and why.
+template <class Msg>
+bool decode_canonical(const void* data, std::size_t size, Msg& out, std::string& reason) {
+  int used = -1;
+  try {
+    // lcm-gen's decoder throws std::length_error on a zero or negative string
+    // length (it checks only the upper bound): that is a malformed message too.
+    if (size <= 1'000'000) used = out.decode(data, 0, static_cast<int>(size));
+  } catch (const std::exception&) {
+    used = -1;
+  }
+  if (used < 0 || static_cast<std::size_t>(used) != size) {
+    reason = used < 0 ? fmt::format("{} bytes that do not decode as {}", size, Msg::getTypeName())
+                      : fmt::format("{} trailing bytes after {}", size - used, Msg::getTypeName());
+    return false;
+  }
+  // The signature covers the canonical encoding. lcm-gen's decoder ignores
+  // the NUL terminator bytes of strings, so bytes that differ from the
+  // canonical encoding would otherwise still verify: refuse them.
+  std::vector<unsigned char> canonical(size);
+  out.encode(canonical.data(), 0, static_cast<int>(size));
+  if (std::memcmp(canonical.data(), data, size) != 0) {
+    reason = "non-canonical encoding (a string terminator was altered)";
+    return false;
+  }
+  return true;
 }
 
 bool all_zero(const std::uint8_t* p, std::size_t n) {
@@ -155,12 +196,24 @@ std::vector<CommandKey> load_command_keys(const std::string& dir,
   return keys;
 }
 
-void sign_command(dualv_lcm::command_t& cmd, const CommandKey& key) {
-  init_sodium();
-  cmd.key_id = key.id;
-  const std::vector<unsigned char> payload = signing_payload(cmd);
-  crypto_auth_hmacsha256(reinterpret_cast<unsigned char*>(cmd.hmac), payload.data(), payload.size(),
-                         key.bytes.data());
+void sign_command(dualv_lcm::command_t& cmd, const CommandKey& key) { sign_message(cmd, key); }
+
+void sign_setpoint(dualv_lcm::setpoint_t& setpoint, const CommandKey& key) {
+  sign_message(setpoint, key);
+}
+
+dualv_lcm::setpoint_t make_setpoint(double x, double y, double theta, std::int64_t utime,
+                                    std::int64_t sequence, const CommandKey* key) {
+  dualv_lcm::setpoint_t sp;
+  sp.utime = utime;
+  sp.sequence = sequence;
+  sp.x = x;
+  sp.y = y;
+  sp.theta = theta;
+  sp.key_id = "";
+  std::fill(std::begin(sp.hmac), std::end(sp.hmac), 0);
+  if (key != nullptr) sign_message(sp, *key);
+  return sp;
 }
 
 dualv_lcm::command_t make_command(CommandKind kind, const std::string& program, std::int64_t utime,
@@ -199,31 +252,82 @@ VerifyResult CommandVerifier::finish(VerifyResult r) {
 VerifyResult CommandVerifier::verify_encoded(const void* data, std::size_t size,
                                              std::int64_t now_utime) {
   VerifyResult r;
-  int used = -1;
-  try {
-    // lcm-gen's decoder throws std::length_error on a zero or negative string
-    // length (it checks only the upper bound): that is a malformed message too.
-    if (size <= 1'000'000) used = r.command.decode(data, 0, static_cast<int>(size));
-  } catch (const std::exception&) {
-    used = -1;
-  }
-  if (used < 0 || static_cast<std::size_t>(used) != size) {
+  if (!decode_canonical(data, size, r.command, r.reason)) {
     r.verdict = CommandVerdict::kMalformed;
-    r.reason = used < 0 ? fmt::format("{} bytes that do not decode as command_t", size)
-                        : fmt::format("{} trailing bytes after command_t", size - used);
-    return finish(std::move(r));
-  }
-  // The signature covers the canonical encoding. lcm-gen's decoder ignores
-  // the NUL terminator bytes of strings, so bytes that differ from the
-  // canonical encoding would otherwise still verify: refuse them.
-  std::vector<unsigned char> canonical(size);
-  r.command.encode(canonical.data(), 0, static_cast<int>(size));
-  if (std::memcmp(canonical.data(), data, size) != 0) {
-    r.verdict = CommandVerdict::kMalformed;
-    r.reason = "non-canonical encoding (a string terminator was altered)";
     return finish(std::move(r));
   }
   return verify(r.command, now_utime);
+}
+
+CommandVerdict CommandVerifier::check_signed(const std::string& key_id, const std::uint8_t* hmac,
+                                             const std::vector<unsigned char>& payload,
+                                             std::int64_t utime, std::int64_t sequence,
+                                             std::int64_t now_utime, std::int64_t max_age_us,
+                                             std::map<std::string, std::int64_t>& last_sequence,
+                                             const char* what, std::string& reason) const {
+  if (all_zero(hmac, 32)) {
+    reason = fmt::format("{} needs a signature (use --key)", what);
+    return CommandVerdict::kUnsigned;
+  }
+  const auto key = std::find_if(keys_.begin(), keys_.end(),
+                                [&](const CommandKey& kk) { return kk.id == key_id; });
+  if (key == keys_.end()) {
+    reason = fmt::format("no key with id '{}'", key_id);
+    return CommandVerdict::kUnknownKey;
+  }
+  if (crypto_auth_hmacsha256_verify(hmac, payload.data(), payload.size(), key->bytes.data()) != 0) {
+    reason = fmt::format("signature does not match key '{}'", key_id);
+    return CommandVerdict::kBadSignature;
+  }
+  // Time and sequence only after the signature: an unauthenticated message
+  // must not be able to advance the replay window.
+  const std::int64_t age = now_utime - utime;
+  if (age > max_age_us || -age > config_.max_future_us) {
+    reason = fmt::format(
+        "sent {:.3f} s {} (accepted: up to {:.3f} s old, {:.3f} s ahead): "
+        "check both clocks (NTP)",
+        static_cast<double>(age < 0 ? -age : age) * 1e-6, age < 0 ? "in the future" : "ago",
+        static_cast<double>(max_age_us) * 1e-6, static_cast<double>(config_.max_future_us) * 1e-6);
+    return CommandVerdict::kStale;
+  }
+  auto last = last_sequence.find(key_id);
+  if (last != last_sequence.end() && sequence <= last->second) {
+    reason = fmt::format("sequence {} not above {} for key '{}'", sequence, last->second, key_id);
+    return CommandVerdict::kReplayed;
+  }
+  last_sequence[key_id] = sequence;
+  reason = fmt::format("{} signed by '{}'", what, key_id);
+  return CommandVerdict::kAccepted;
+}
+
+SetpointVerifyResult CommandVerifier::verify_setpoint_encoded(const void* data, std::size_t size,
+                                                              std::int64_t now_utime) {
+  SetpointVerifyResult r;
+  if (!decode_canonical(data, size, r.setpoint, r.reason)) {
+    r.verdict = CommandVerdict::kMalformed;
+    ++setpoint_counts_[static_cast<int>(r.verdict)];
+    return r;
+  }
+  return verify_setpoint(r.setpoint, now_utime);
+}
+
+SetpointVerifyResult CommandVerifier::verify_setpoint(const dualv_lcm::setpoint_t& sp,
+                                                      std::int64_t now_utime) {
+  SetpointVerifyResult r;
+  r.setpoint = sp;
+  if (sp.key_id.size() > 64 || !printable(sp.key_id)) {
+    r.verdict = CommandVerdict::kMalformed;
+    r.reason = "key id too long or not printable";
+  } else if (!std::isfinite(sp.x) || !std::isfinite(sp.y) || !std::isfinite(sp.theta)) {
+    r.verdict = CommandVerdict::kMalformed;
+    r.reason = fmt::format("pose ({}, {}, {}) is not finite", sp.x, sp.y, sp.theta);
+  } else {
+    r.verdict =
+        check_signed(sp.key_id, sp.hmac, signing_payload(sp), sp.utime, sp.sequence, now_utime,
+                     config_.max_setpoint_age_us, last_setpoint_sequence_, "setpoint", r.reason);
+  }
+  ++setpoint_counts_[static_cast<int>(r.verdict)];
+  return r;
 }
 
 VerifyResult CommandVerifier::verify(const dualv_lcm::command_t& cmd, std::int64_t now_utime) {
@@ -251,36 +355,9 @@ VerifyResult CommandVerifier::verify(const dualv_lcm::command_t& cmd, std::int64
     return finish(std::move(r));
   }
 
-  if (all_zero(reinterpret_cast<const std::uint8_t*>(cmd.hmac), sizeof(cmd.hmac)))
-    return refuse(CommandVerdict::kUnsigned,
-                  fmt::format("{} needs a signature (use --key)", to_string(kind)));
-  const auto key = std::find_if(keys_.begin(), keys_.end(),
-                                [&](const CommandKey& kk) { return kk.id == cmd.key_id; });
-  if (key == keys_.end())
-    return refuse(CommandVerdict::kUnknownKey, fmt::format("no key with id '{}'", cmd.key_id));
-  const std::vector<unsigned char> payload = signing_payload(cmd);
-  if (crypto_auth_hmacsha256_verify(reinterpret_cast<const unsigned char*>(cmd.hmac),
-                                    payload.data(), payload.size(), key->bytes.data()) != 0)
-    return refuse(CommandVerdict::kBadSignature,
-                  fmt::format("signature does not match key '{}'", cmd.key_id));
-  // Time and sequence only after the signature: an unauthenticated message
-  // must not be able to advance the replay window.
-  const std::int64_t age = now_utime - cmd.utime;
-  if (age > config_.max_age_us || -age > config_.max_future_us)
-    return refuse(CommandVerdict::kStale,
-                  fmt::format("sent {:.3f} s {} (accepted: up to {:.3f} s old, {:.3f} s ahead): "
-                              "check both clocks (NTP)",
-                              static_cast<double>(age < 0 ? -age : age) * 1e-6,
-                              age < 0 ? "in the future" : "ago",
-                              static_cast<double>(config_.max_age_us) * 1e-6,
-                              static_cast<double>(config_.max_future_us) * 1e-6));
-  auto last = last_sequence_.find(cmd.key_id);
-  if (last != last_sequence_.end() && cmd.sequence <= last->second)
-    return refuse(CommandVerdict::kReplayed, fmt::format("sequence {} not above {} for key '{}'",
-                                                         cmd.sequence, last->second, cmd.key_id));
-  last_sequence_[cmd.key_id] = cmd.sequence;
-  r.verdict = CommandVerdict::kAccepted;
-  r.reason = fmt::format("{} signed by '{}'", to_string(kind), cmd.key_id);
+  r.verdict =
+      check_signed(cmd.key_id, cmd.hmac, signing_payload(cmd), cmd.utime, cmd.sequence, now_utime,
+                   config_.max_age_us, last_sequence_, to_string(kind), r.reason);
   return finish(std::move(r));
 }
 

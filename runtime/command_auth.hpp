@@ -1,5 +1,6 @@
 #pragma once
-// Authentication of operator commands (dualv_lcm::command_t).
+// Authentication of operator commands (dualv_lcm::command_t) and of streamed pose setpoints
+// (dualv_lcm::setpoint_t): both are signed and checked the same way, by the same code.
 //
 // Commands that start motion or reset a stop carry
 //   hmac = HMAC-SHA256(key, LCM encoding of the command with hmac zeroed)
@@ -20,6 +21,7 @@
 #include <vector>
 
 #include "dualv_lcm/command_t.hpp"
+#include "dualv_lcm/setpoint_t.hpp"
 
 namespace dualv::runtime {
 
@@ -56,6 +58,11 @@ dualv_lcm::command_t make_command(CommandKind kind, const std::string& program, 
 // Sets key_id and hmac of `cmd` for `key`.
 void sign_command(dualv_lcm::command_t& cmd, const CommandKey& key);
 
+// A pose setpoint, signed when `key` is given (an unsigned one is always refused).
+dualv_lcm::setpoint_t make_setpoint(double x, double y, double theta, std::int64_t utime,
+                                    std::int64_t sequence, const CommandKey* key);
+void sign_setpoint(dualv_lcm::setpoint_t& setpoint, const CommandKey& key);
+
 enum class CommandVerdict {
   kAccepted,
   kMalformed,     // does not decode, trailing bytes, unknown kind, bad field
@@ -72,12 +79,21 @@ struct CommandAuthConfig {
   std::int64_t max_age_us = 2'000'000;     // older than this: stale
   std::int64_t max_future_us = 1'000'000;  // sender clock ahead by more: stale
   std::size_t max_program_name = 64;
+  // Setpoints: a stream is live data, so a tighter age window (a setpoint delayed this long
+  // is no longer what the operator asks for; the stream watchdog is tighter still).
+  std::int64_t max_setpoint_age_us = 500'000;
 };
 
 struct VerifyResult {
   CommandVerdict verdict = CommandVerdict::kMalformed;
   dualv_lcm::command_t command;  // decoded (when not malformed)
   std::string reason;            // one line for the log
+};
+
+struct SetpointVerifyResult {
+  CommandVerdict verdict = CommandVerdict::kMalformed;
+  dualv_lcm::setpoint_t setpoint;  // decoded (when not malformed)
+  std::string reason;
 };
 
 class CommandVerifier {
@@ -90,16 +106,38 @@ class CommandVerifier {
   // Decodes an LCM payload first: anything that does not decode exactly is malformed.
   VerifyResult verify_encoded(const void* data, std::size_t size, std::int64_t now_utime);
 
+  // Setpoints: the same checks (a non-finite pose is malformed); their sequence numbers are
+  // their own (per key), apart from the commands' (a stream and a `dualv stop` from another
+  // process must not refuse each other as replays).
+  SetpointVerifyResult verify_setpoint(const dualv_lcm::setpoint_t& setpoint,
+                                       std::int64_t now_utime);
+  SetpointVerifyResult verify_setpoint_encoded(const void* data, std::size_t size,
+                                               std::int64_t now_utime);
+
   std::uint64_t count(CommandVerdict v) const noexcept { return counts_[static_cast<int>(v)]; }
   std::uint64_t refused() const noexcept;
+  std::uint64_t setpoint_count(CommandVerdict v) const noexcept {
+    return setpoint_counts_[static_cast<int>(v)];
+  }
   std::size_t key_count() const noexcept { return keys_.size(); }
 
  private:
   VerifyResult finish(VerifyResult r);
+  // The checks every signed message shares, in this order: signed, known key, HMAC, age,
+  // sequence above `last_sequence[key_id]` (advanced when accepted). `what` names the
+  // message in the reason.
+  CommandVerdict check_signed(const std::string& key_id, const std::uint8_t* hmac,
+                              const std::vector<unsigned char>& payload, std::int64_t utime,
+                              std::int64_t sequence, std::int64_t now_utime,
+                              std::int64_t max_age_us,
+                              std::map<std::string, std::int64_t>& last_sequence, const char* what,
+                              std::string& reason) const;
   std::vector<CommandKey> keys_;
   CommandAuthConfig config_;
   std::map<std::string, std::int64_t> last_sequence_;
+  std::map<std::string, std::int64_t> last_setpoint_sequence_;
   std::array<std::uint64_t, kVerdictCount> counts_{};
+  std::array<std::uint64_t, kVerdictCount> setpoint_counts_{};
 };
 
 }  // namespace dualv::runtime

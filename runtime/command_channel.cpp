@@ -35,6 +35,8 @@ CommandChannel::~CommandChannel() {
   stop();
   // An LCM owned by the caller outlives us: it must not call back into a dead object.
   if (subscription_ != nullptr) lcm_unsubscribe(lcm_->getUnderlyingLCM(), subscription_);
+  if (setpoint_subscription_ != nullptr)
+    lcm_unsubscribe(lcm_->getUnderlyingLCM(), setpoint_subscription_);
 }
 
 void CommandChannel::subscribe() {
@@ -42,6 +44,10 @@ void CommandChannel::subscribe() {
       lcm_subscribe(lcm_->getUnderlyingLCM(), kCommandChannel, &CommandChannel::on_message, this);
   if (subscription_ == nullptr)
     throw std::runtime_error(fmt::format("cannot subscribe to LCM channel {}", kCommandChannel));
+  setpoint_subscription_ =
+      lcm_subscribe(lcm_->getUnderlyingLCM(), kSetpointChannel, &CommandChannel::on_setpoint, this);
+  if (setpoint_subscription_ == nullptr)
+    throw std::runtime_error(fmt::format("cannot subscribe to LCM channel {}", kSetpointChannel));
 }
 
 int CommandChannel::poll(int timeout_ms) { return lcm_->handleTimeout(timeout_ms); }
@@ -71,6 +77,53 @@ void CommandChannel::on_message(const lcm_recv_buf_t* rbuf, const char*, void* u
     self->refused_.fetch_add(1);
     spdlog::error("command channel: {} while handling a command; it was not acted on", e.what());
   }
+}
+
+void CommandChannel::on_setpoint(const lcm_recv_buf_t* rbuf, const char*, void* user) {
+  auto* self = static_cast<CommandChannel*>(user);
+  try {
+    self->handle_setpoint(rbuf->data, rbuf->data_size);
+  } catch (const std::exception& e) {
+    self->sp_refused_.fetch_add(1);
+    spdlog::error("command channel: {} while handling a setpoint; it was not acted on", e.what());
+  }
+}
+
+void CommandChannel::handle_setpoint(const void* data, std::size_t size) {
+  SetpointVerifyResult r = verifier_.verify_setpoint_encoded(data, size, clock_());
+  if (r.verdict == CommandVerdict::kAccepted && setpoint_check_) {
+    std::string why = setpoint_check_(r.setpoint.x, r.setpoint.y, r.setpoint.theta);
+    if (!why.empty()) {
+      r.verdict = CommandVerdict::kMalformed;
+      r.reason = std::move(why);
+    }
+  }
+  if (r.verdict != CommandVerdict::kAccepted) {
+    // A bad stream repeats at its rate: the first ones, then one line per 100, not a flood.
+    const std::uint64_t n = sp_refused_.fetch_add(1) + 1;
+    if (n <= 10 || n % 100 == 0)
+      spdlog::warn("setpoint refused ({}): {}; key '{}', sequence {} ({} refused so far)",
+                   to_string(r.verdict), r.reason, r.setpoint.key_id, r.setpoint.sequence, n);
+    return;
+  }
+  sp_accepted_.fetch_add(1);
+  VerifiedSetpoint v;
+  v.utime = r.setpoint.utime;
+  v.sequence = r.setpoint.sequence;
+  v.x = r.setpoint.x;
+  v.y = r.setpoint.y;
+  v.theta = r.setpoint.theta;
+  // A full queue means nobody consumes setpoints (no stream running): the newest are dropped
+  // and counted; the consumer only ever wants the latest anyway.
+  setpoints_.try_push(v);
+}
+
+dualv_lcm::setpoint_t send_setpoint(lcm::LCM& lcm, double x, double y, double theta,
+                                    std::int64_t sequence, const CommandKey* key) {
+  dualv_lcm::setpoint_t sp = make_setpoint(x, y, theta, wall_utime(), sequence, key);
+  if (lcm.publish(kSetpointChannel, &sp) != 0)
+    throw std::runtime_error("LCM publish of a setpoint failed");
+  return sp;
 }
 
 void CommandChannel::handle(const void* data, std::size_t size) {

@@ -1,8 +1,9 @@
 #pragma once
-// Receives operator commands on the LCM command channel, verifies them
-// (command_auth.hpp) and hands the accepted ones to the application through a
-// lock-free queue, so the consumer may be the real-time loop itself.
-// Refused commands are counted and logged (spdlog warning), never queued.
+// Receives operator commands on the LCM command channel and streamed pose
+// setpoints on the setpoint channel, verifies them (command_auth.hpp) and hands
+// the accepted ones to the application through lock-free queues, so the
+// consumer may be the real-time loop itself. Refused commands and setpoints
+// are counted and logged (spdlog warning; setpoints rate-limited), never queued.
 //
 // E-stops are also counted in an atomic the consumer can poll: an e-stop is
 // never lost, even when the queue is full.
@@ -37,10 +38,20 @@ struct VerifiedCommand {
   char key_id[65] = {};
 };
 
+// A verified pose setpoint (setpoint_t), fixed-size for the queue.
+struct VerifiedSetpoint {
+  std::int64_t utime = 0;
+  std::int64_t sequence = 0;
+  double x = 0.0, y = 0.0, theta = 0.0;
+};
+
 class CommandChannel {
  public:
   static constexpr std::size_t kQueue = 64;
   using WallClock = std::function<std::int64_t()>;  // us since 1970
+  // The application's own check of a signed setpoint (workspace, kinematics): an empty
+  // string accepts it, otherwise the reason it is refused. Runs on the receiving thread.
+  using SetpointCheck = std::function<std::string(double x, double y, double theta)>;
 
   // Opens its own LCM on `url` (throws std::runtime_error when it cannot).
   CommandChannel(const std::string& url, CommandVerifier verifier, WallClock clock = {});
@@ -56,7 +67,14 @@ class CommandChannel {
   void start();  // a thread calling poll(50) until stop()
   void stop();
 
+  // Set before start() (or the first poll()).
+  void set_setpoint_check(SetpointCheck check) { setpoint_check_ = std::move(check); }
+
   bool try_pop(VerifiedCommand& out) noexcept { return queue_.try_pop(out); }
+  bool try_pop_setpoint(VerifiedSetpoint& out) noexcept { return setpoints_.try_pop(out); }
+  std::uint64_t setpoints_accepted() const noexcept { return sp_accepted_.load(); }
+  std::uint64_t setpoints_refused() const noexcept { return sp_refused_.load(); }
+  std::uint64_t setpoints_dropped() const noexcept { return setpoints_.dropped(); }
   std::uint64_t estop_requests() const noexcept { return estops_.load(std::memory_order_acquire); }
   std::uint64_t accepted() const noexcept { return accepted_.load(); }
   std::uint64_t refused() const noexcept { return refused_.load(); }
@@ -70,11 +88,17 @@ class CommandChannel {
   // subscription miscompiles under GCC 12's -fsanitize=vptr (the callback
   // receives a wrong user_data), which would break sanitizer CI runs.
   static void on_message(const lcm_recv_buf_t* rbuf, const char* channel, void* self);
+  static void on_setpoint(const lcm_recv_buf_t* rbuf, const char* channel, void* self);
   void handle(const void* data, std::size_t size);
+  void handle_setpoint(const void* data, std::size_t size);
 
   std::unique_ptr<lcm::LCM> owned_;
   lcm::LCM* lcm_;
   lcm_subscription_t* subscription_ = nullptr;
+  lcm_subscription_t* setpoint_subscription_ = nullptr;
+  SetpointCheck setpoint_check_;
+  SpscQueue<VerifiedSetpoint, kQueue> setpoints_;
+  std::atomic<std::uint64_t> sp_accepted_{0}, sp_refused_{0};
   CommandVerifier verifier_;
   WallClock clock_;
   SpscQueue<VerifiedCommand, kQueue> queue_;
@@ -82,6 +106,12 @@ class CommandChannel {
   std::atomic<bool> running_{false};
   std::thread thread_;
 };
+
+// Sends one pose setpoint (signed when `key` is given) on the setpoint channel
+// with `sequence` and the wall clock as utime. Throws std::runtime_error when
+// LCM cannot publish.
+dualv_lcm::setpoint_t send_setpoint(lcm::LCM& lcm, double x, double y, double theta,
+                                    std::int64_t sequence, const CommandKey* key);
 
 // Sends one command (signed when `key` is given) on the command channel;
 // sequence and utime come from the wall clock in microseconds, which keeps

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <csignal>
 #include <memory>
+#include <stdexcept>
 #include <thread>
 
 #include "control/loop/control_cycle.hpp"
@@ -201,25 +202,42 @@ void compute_metrics(const trajectory::Program& program, RunResult& r) {
   }
 }
 
-RunResult run_program(const RobotConfig& config, const trajectory::Program& program,
-                      const Variant& variant, drivers::ActuatorSet& io, const RunOptions& options,
-                      const std::function<double()>& after_cycle) {
+namespace {
+
+// One closed-loop run; the reference is `program` or, when null, a stream of setpoints.
+RunResult run_loop(const RobotConfig& config, const trajectory::Program* program,
+                   const Variant& variant, drivers::ActuatorSet& io, const RunOptions& options,
+                   const std::function<double()>& after_cycle) {
   const auto wall_start = std::chrono::steady_clock::now();
   RunResult result;
   result.variant = variant;
   result.n = config.model.n;
+  const bool stream = program == nullptr;
+  if (stream && !options.commands)
+    throw std::invalid_argument("a streaming run needs a command channel for its setpoints");
+  result.stream.streamed = stream;
 
   control::ControlSetup setup = config.control;
   setup.controller.projection = variant.projection;
   setup.controller.feedforward = variant.feedforward;
   const double period = config.period();
   control::ControlCycle cycle(config.model, setup, {period, 2.0, config.safety});
-  cycle.start(io, trajectory::with_timing(program, variant.timing), config.trajectory.rebase);
-  const trajectory::Program& run_program = cycle.sequencer()->program();
-  const double duration = cycle.program_duration();
+  if (stream)
+    cycle.start_streaming(io, config.trajectory.streaming, config.trajectory.limits.workspace);
+  else
+    cycle.start(io, trajectory::with_timing(*program, variant.timing), config.trajectory.rebase);
+  const trajectory::Program run_program =
+      stream ? trajectory::Program(config.model.home) : cycle.sequencer()->program();
+  const double duration = stream ? options.max_stream_time : cycle.program_duration();
   const auto total_cycles =
       static_cast<std::int64_t>(std::ceil((duration + options.settle_time) / period));
-  result.rows.reserve(static_cast<std::size_t>(total_cycles));  // no allocation in the loop
+  // No allocation in the loop: a program's rows are all kept; a stream's up to a bound.
+  const std::int64_t row_capacity =
+      stream ? std::min(total_cycles, std::max<std::int64_t>(options.max_stream_rows, 1))
+             : total_cycles;
+  result.rows.reserve(static_cast<std::size_t>(row_capacity));
+  const auto settle_cycles = static_cast<std::int64_t>(std::ceil(options.settle_time / period));
+  std::int64_t stream_end_cycle = -1;  // loop cycle of the signed stop that ended the stream
 
   // Simulated time: the schedule jumps, the cycle work is still timed on the real clock.
   // Only a simulation advanced by after_cycle may run on it: drives on a bus (no
@@ -256,14 +274,30 @@ RunResult run_program(const RobotConfig& config, const trajectory::Program& prog
     estops_seen = estops;
     runtime::VerifiedCommand cmd;
     while (options.commands->try_pop(cmd)) {
-      if (cmd.kind == runtime::CommandKind::kStop)
+      // A stop ends a stream normally (hold); it stops a program with SS1.
+      if (cmd.kind == runtime::CommandKind::kStop && stream) {
+        cycle.end_stream();
+        result.stream.ended_by_stop = true;
+      } else if (cmd.kind == runtime::CommandKind::kStop) {
         cycle.safety().request_stop(safety::StopSource::kLcm);
+      }
       if (cmd.kind == runtime::CommandKind::kReset) cycle.safety().request_reset();
+    }
+    // Setpoints are absolute poses: each one replaces the last, so all are handed on in
+    // order; the reference refuses (and counts) bad ones, the accepted feed the watchdog.
+    runtime::VerifiedSetpoint sp;
+    while (options.commands->try_pop_setpoint(sp)) {
+      if (stream)
+        cycle.stream_setpoint(model::Pose(sp.x, sp.y, sp.theta));
+      else
+        ++result.stream.ignored;
     }
   };
   auto fn = [&](const control::CycleInfo& info) noexcept -> control::CycleResult {
     if (options.service) options.service->beat();  // the watchdog's proof of life
     take_commands();
+    if (stream && result.stream.ended_by_stop && stream_end_cycle < 0)
+      stream_end_cycle = info.cycle;
     cycle.note_timing(info.skipped_releases > 0, info.consecutive_misses);
     const control::CycleStatus s = cycle.step(io, rec);
     const double internal = after_cycle ? after_cycle() : std::nan("");
@@ -296,10 +330,21 @@ RunResult run_program(const RobotConfig& config, const trajectory::Program& prog
     row.lambda_dd = rec.ref.phase.lambda_dd;
     if (result.rows.size() < result.rows.capacity()) result.rows.push_back(row);
     if (options.telemetry) options.telemetry->push_state(state_sample(rec, result.n, simulated));
+    if (stream)  // held for settle_time after a normal end, else until max_stream_time
+      return (stream_end_cycle >= 0 && info.cycle >= stream_end_cycle + settle_cycles) ||
+                     info.cycle >= total_cycles
+                 ? control::CycleResult::kStop
+                 : control::CycleResult::kContinue;
     return result.rows.size() < result.rows.capacity() ? control::CycleResult::kContinue
                                                        : control::CycleResult::kStop;
   };
   auto with_progress = [&](const control::CycleInfo& info) noexcept -> control::CycleResult {
+    if (options.before_cycle) {  // tests and simulations only (RunOptions)
+      try {
+        options.before_cycle(info.cycle);
+      } catch (...) {
+      }
+    }
     const control::CycleResult r = fn(info);
     // Progress is set-up code's business: called between cycles, it may print.
     if (options.progress && info.cycle % progress_every == 0) {
@@ -345,19 +390,28 @@ RunResult run_program(const RobotConfig& config, const trajectory::Program& prog
                                   safety::to_string(rec.safety.state), rec.cycle);
   }
   result.robot_time = static_cast<double>(result.rows.size()) * period;
+  if (const trajectory::StreamingReference* ref = cycle.stream()) {
+    result.stream.accepted = ref->accepted();
+    for (auto s :
+         {trajectory::TargetStatus::kNonFinite, trajectory::TargetStatus::kOutsideWorkspace,
+          trajectory::TargetStatus::kNotActive})
+      result.stream.refused += ref->refused(s);
+  }
   compute_metrics(run_program, result);
   result.wall_time =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;
 }
 
-RunResult run_in_process(const RobotConfig& config, const trajectory::Program& program,
-                         const Variant& variant, const RunOptions& options) {
+// The in-process simulation of config.plant, started at home, around `run`.
+RunResult with_plant(
+    const RobotConfig& config,
+    const std::function<RunResult(drivers::ActuatorSet&, const std::function<double()>&)>& run) {
   sim::Plant plant(config.model, config.plant);
   plant.reset(config.model.home);
   sim::SimActuatorSet io(plant);
   const double period = config.period();
-  RunResult r = run_program(config, program, variant, io, options, [&]() noexcept {
+  RunResult r = run(io, [&]() noexcept {
     return plant.advance(period) == sim::PlantStatus::kOk ? plant.output().internal_norm
                                                           : std::nan("");
   });
@@ -367,6 +421,34 @@ RunResult run_in_process(const RobotConfig& config, const trajectory::Program& p
                             model::to_string(plant.output().fault));
   }
   return r;
+}
+
+}  // namespace
+
+RunResult run_program(const RobotConfig& config, const trajectory::Program& program,
+                      const Variant& variant, drivers::ActuatorSet& io, const RunOptions& options,
+                      const std::function<double()>& after_cycle) {
+  return run_loop(config, &program, variant, io, options, after_cycle);
+}
+
+RunResult run_in_process(const RobotConfig& config, const trajectory::Program& program,
+                         const Variant& variant, const RunOptions& options) {
+  return with_plant(config, [&](drivers::ActuatorSet& io, const std::function<double()>& after) {
+    return run_program(config, program, variant, io, options, after);
+  });
+}
+
+RunResult run_stream(const RobotConfig& config, drivers::ActuatorSet& io, const RunOptions& options,
+                     const std::function<double()>& after_cycle) {
+  Variant v = paper_variants().front();
+  v.name = "stream";
+  return run_loop(config, nullptr, v, io, options, after_cycle);
+}
+
+RunResult run_stream_in_process(const RobotConfig& config, const RunOptions& options) {
+  return with_plant(config, [&](drivers::ActuatorSet& io, const std::function<double()>& after) {
+    return run_stream(config, io, options, after);
+  });
 }
 
 }  // namespace dualv::apps

@@ -52,6 +52,15 @@ struct SegmentMetrics {
   int cycles = 0;
 };
 
+// What a streaming run (run_stream) did with the setpoints it received.
+struct StreamStats {
+  bool streamed = false;       // the run followed a stream
+  std::uint64_t accepted = 0;  // setpoints the streaming reference took
+  std::uint64_t refused = 0;   // refused by the reference: non-finite, outside, after the end
+  std::uint64_t ignored = 0;   // setpoints received while no stream was running
+  bool ended_by_stop = false;  // a signed stop ended the stream normally (hold, no fault)
+};
+
 struct RunResult {
   control::LoopStatsSummary loop;  // cycle time and lateness of the loop
   Variant variant;
@@ -63,6 +72,7 @@ struct RunResult {
   double wall_time = 0.0;                // [s]
   bool ok = true;
   std::string failure;  // why the run stopped early
+  StreamStats stream;
 };
 
 struct RunOptions {
@@ -83,6 +93,13 @@ struct RunOptions {
   // while the loop runs, so a hung loop gets the service killed.
   runtime::ServiceNotifier* service = nullptr;
   std::function<void(const std::string& variant, double t, double duration)> progress;
+  // Streaming runs: the longest a stream may last [s]; time series rows are kept for at most
+  // max_stream_rows cycles (the run goes on without recording after that).
+  double max_stream_time = 3600.0;
+  std::int64_t max_stream_rows = 120'000;
+  // Tests and simulations only: called before every cycle with the loop's cycle number
+  // (e.g. to publish a setpoint in simulated time). Never set on a real-time run.
+  std::function<void(std::int64_t cycle)> before_cycle;
 };
 
 // Runs `program` (rebased onto the simulated robot's home pose) with the variant's timing
@@ -97,6 +114,18 @@ RunResult run_in_process(const RobotConfig& config, const trajectory::Program& p
 RunResult run_program(const RobotConfig& config, const trajectory::Program& program,
                       const Variant& variant, drivers::ActuatorSet& io, const RunOptions& options,
                       const std::function<double()>& after_cycle = {});
+
+// A streaming run (`dualv start stream`): the robot follows the signed pose setpoints that
+// options.commands receives (runtime/command_channel.hpp), through the streaming reference
+// (control/trajectory/streaming_reference.hpp) within config.trajectory.streaming and inside
+// config.trajectory.limits.workspace. A signed stop ends it normally (the reference comes to
+// rest, held for options.settle_time); a stream silent for
+// safety.watchdogs.command_stream_timeout stops it (SS1, kCommandStreamStale). Needs
+// options.commands (std::invalid_argument otherwise).
+RunResult run_stream(const RobotConfig& config, drivers::ActuatorSet& io, const RunOptions& options,
+                     const std::function<double()>& after_cycle = {});
+// The same against the in-process simulation.
+RunResult run_stream_in_process(const RobotConfig& config, const RunOptions& options);
 
 // SIGINT / SIGTERM request a safety stop (SS1) of the run in progress; a second signal, or a
 // signal while no run is active, ends the process at once, unless `exit_when_idle`: then a

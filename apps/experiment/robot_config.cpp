@@ -60,6 +60,11 @@ RobotConfig load_robot_config(const std::string& path) {
          s.min_parallel_singularity > lim.min_parallel_singularity},
         {"safety.min_serial_singularity: must be <= trajectory.limits.min_serial_singularity",
          s.min_serial_singularity > lim.min_serial_singularity},
+        {"trajectory.streaming.max_speed: must be below safety.max_plate_velocity",
+         cfg.trajectory.streaming.max_speed >= s.max_plate_velocity},
+        {"trajectory.streaming.max_angular_speed: must be below "
+         "safety.max_plate_angular_velocity",
+         cfg.trajectory.streaming.max_angular_speed >= s.max_plate_angular_velocity},
     };
     for (const auto& [what, bad] : checks)
       if (bad) problems.push_back(fmt::format("{}: {}", path, what));

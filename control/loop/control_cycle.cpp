@@ -54,38 +54,77 @@ double ControlCycle::program_duration() const noexcept {
   return sequencer_ ? sequencer_->duration() : 0.0;
 }
 
-void ControlCycle::start(drivers::ActuatorSet& io, const trajectory::Program& program,
-                         const trajectory::RebaseOptions& rebase) {
+void ControlCycle::read_pose(drivers::ActuatorSet& io, drivers::ActuatorFeedback& fb,
+                             model::JointVector& q, model::Pose& X) {
   if (io.size() != model_->n)
     throw std::runtime_error(fmt::format(
         "the actuator set has {} drives but the model has {} chains", io.size(), model_->n));
-  drivers::ActuatorFeedback fb;
   const drivers::IoStatus s = io.read(fb);
   if (s == drivers::IoStatus::kBusError || s == drivers::IoStatus::kNotReady)
     throw std::runtime_error("cannot read the drives' positions at start-up");
-  model::JointVector q(model_->n);
+  q.resize(model_->n);
   for (int i = 0; i < model_->n; ++i) q[i] = fb.drive[i].position;
   model::Data data(*model_);
-  model::Pose X;
   const model::FkResult fk = model::forward_kinematics(*model_, data, q, model_->home, X);
   if (fk.status != model::Status::kOk)
     throw std::runtime_error(fmt::format(
         "cannot find the plate pose from the joint angles (forward kinematics: {}, residual {:.3g} "
         "rad): check the encoder offsets and that the robot is near its home pose",
         model::to_string(fk.status), fk.residual));
-  // Arm the safety filter last: nothing above may leave it armed on a failed start.
-  std::optional<trajectory::Sequencer> sequencer;
-  sequencer.emplace(*model_, trajectory::rebase(program, X, rebase));
+}
+
+void ControlCycle::arm(const drivers::ActuatorFeedback& fb, const model::JointVector& q,
+                       const model::Pose& X) {
   const safety::ArmStatus armed = safety_.arm(
       fb, static_cast<std::int64_t>(static_cast<double>(cycle_) * config_.period * 1e9));
   if (armed != safety::ArmStatus::kOk)
     throw std::runtime_error(fmt::format("cannot start: safety: {}", safety::to_string(armed)));
   estimator_.reset(q, X);
-  sequencer_ = std::move(sequencer);
   phase_ = CyclePhase::kEnabling;
   cycle_ = 0;
   enabling_cycles_ = 0;
   t_ = 0.0;
+  stream_fresh_ = false;
+}
+
+void ControlCycle::start(drivers::ActuatorSet& io, const trajectory::Program& program,
+                         const trajectory::RebaseOptions& rebase) {
+  drivers::ActuatorFeedback fb;
+  model::JointVector q;
+  model::Pose X;
+  read_pose(io, fb, q, X);
+  // Arm the safety filter last: nothing above may leave it armed on a failed start.
+  std::optional<trajectory::Sequencer> sequencer;
+  sequencer.emplace(*model_, trajectory::rebase(program, X, rebase));
+  arm(fb, q, X);
+  stream_.reset();
+  sequencer_ = std::move(sequencer);
+}
+
+void ControlCycle::start_streaming(drivers::ActuatorSet& io,
+                                   const trajectory::StreamingLimits& limits,
+                                   const trajectory::Workspace& workspace) {
+  drivers::ActuatorFeedback fb;
+  model::JointVector q;
+  model::Pose X;
+  read_pose(io, fb, q, X);
+  std::optional<trajectory::StreamingReference> stream;
+  stream.emplace(*model_, limits, workspace, config_.period);
+  stream->reset(X);  // from the actual pose, at rest: starting a stream never moves the robot
+  arm(fb, q, X);
+  sequencer_.reset();
+  stream_ = std::move(stream);
+}
+
+trajectory::TargetStatus ControlCycle::stream_setpoint(const model::Pose& X) noexcept {
+  if (!stream_ || phase_ == CyclePhase::kStopped) return trajectory::TargetStatus::kNotActive;
+  const trajectory::TargetStatus s = stream_->set_target(X);
+  if (s == trajectory::TargetStatus::kAccepted) stream_fresh_ = true;
+  return s;
+}
+
+void ControlCycle::end_stream() noexcept {
+  if (stream_) stream_->hold();
 }
 
 CycleStatus ControlCycle::step(drivers::ActuatorSet& io, CycleRecord& rec) noexcept {
@@ -103,7 +142,7 @@ CycleStatus ControlCycle::step(drivers::ActuatorSet& io, CycleRecord& rec) noexc
     rec.status = CycleStatus::kEstimateFailed;
   rec.est = estimator_.estimate();
 
-  if (!sequencer_) {
+  if (!has_reference()) {
     rec.status = CycleStatus::kControlFailed;
     finish(io, rec, io_status);
     return rec.status;
@@ -126,7 +165,11 @@ CycleStatus ControlCycle::step(drivers::ActuatorSet& io, CycleRecord& rec) noexc
 
   rec.phase = phase_;
   rec.t = t_;
-  const trajectory::SampleStatus ss = sequencer_->sample(t_, rec.ref);
+  const bool moving = phase_ == CyclePhase::kRunning || phase_ == CyclePhase::kHolding;
+  const trajectory::SampleStatus ss =
+      stream_ ? stream_->step(moving, rec.ref) : sequencer_->sample(t_, rec.ref);
+  if (stream_ && phase_ == CyclePhase::kRunning && !stream_->active())
+    phase_ = CyclePhase::kHolding;
   if (phase_ == CyclePhase::kRunning && ss == trajectory::SampleStatus::kFinished)
     phase_ = CyclePhase::kHolding;
 
@@ -153,16 +196,19 @@ CycleStatus ControlCycle::finish(drivers::ActuatorSet& io, CycleRecord& rec,
   in.command = rec.command;
   in.pose_valid = rec.est.status == EstimateStatus::kOk;
   in.X = rec.est.X;
-  in.tracking = sequencer_ && (phase_ == CyclePhase::kRunning || phase_ == CyclePhase::kHolding);
+  in.tracking =
+      has_reference() && (phase_ == CyclePhase::kRunning || phase_ == CyclePhase::kHolding);
   in.X_d = rec.ref.cartesian.X;
   in.deadline_missed = deadline_missed_;
   in.consecutive_deadline_misses = consecutive_misses_;
-  in.streaming = streaming_;
+  // The watchdog runs while a stream is followed (not while the drives enable: the sender
+  // cannot know when that ends); end_stream() turns it off.
+  in.streaming = streaming_ || (stream_ && stream_->active() && phase_ == CyclePhase::kRunning);
   in.stream_fresh = stream_fresh_;
   stream_fresh_ = false;
   const safety::SafetyState st = safety_.update(rec.feedback, in, rec.command);
   if (st != safety::SafetyState::kOperational) {
-    if (sequencer_) phase_ = CyclePhase::kStopped;
+    if (has_reference()) phase_ = CyclePhase::kStopped;
     rec.phase = phase_;
     if (rec.status == CycleStatus::kOk) rec.status = CycleStatus::kSafetyStop;
   }

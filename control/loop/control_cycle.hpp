@@ -12,7 +12,15 @@
 // the final pose is held by the same control law) . A program always starts from the
 // robot's actual pose (trajectory::rebase in start()), so enabling never moves the robot.
 //
-// start() is set-up (may allocate and throw); step() is noexcept and allocation-free.
+// The reference comes from one of two sources: the program sequencer (start()) or the
+// streaming reference (start_streaming()), which follows setpoints handed to
+// stream_setpoint() each cycle. While a stream runs, the safety filter's command-stream
+// watchdog is on (SafetyInput::streaming) and fed by every accepted setpoint (stream_fresh);
+// end_stream() is the normal end: the reference comes to rest and is held (kHolding), the
+// watchdog is off, nothing is latched.
+//
+// start() and start_streaming() are set-up (may allocate and throw); step(), stream_setpoint()
+// and end_stream() are noexcept and allocation-free.
 #include <cstdint>
 #include <optional>
 
@@ -21,6 +29,7 @@
 #include "control/trajectory/limits.hpp"
 #include "control/trajectory/program.hpp"
 #include "control/trajectory/sequencer.hpp"
+#include "control/trajectory/streaming_reference.hpp"
 #include "drivers/actuator_set.hpp"
 #include "safety/safety_filter.hpp"
 
@@ -72,6 +81,25 @@ class ControlCycle {
   void start(drivers::ActuatorSet& io, const trajectory::Program& program,
              const trajectory::RebaseOptions& rebase);
 
+  // Set-up, as start() but the reference follows streamed setpoints (streaming_reference.hpp)
+  // from the robot's actual pose, at rest until the first one. Setpoints must lie in
+  // `workspace`; `limits` bound the motion. Same errors as start().
+  void start_streaming(drivers::ActuatorSet& io, const trajectory::StreamingLimits& limits,
+                       const trajectory::Workspace& workspace);
+  // RT: a setpoint for the running stream (the caller verified its signature and sequence).
+  // Accepted ones feed the watchdog this cycle; refused ones (non-finite, outside the
+  // workspace, no stream) change nothing and are counted by the reference.
+  trajectory::TargetStatus stream_setpoint(const model::Pose& X) noexcept;
+  // RT: the normal end of a stream (a signed stop): hold, watchdog off, no fault.
+  void end_stream() noexcept;
+  // A stream was started and has not ended (end_stream) or stopped (safety).
+  bool streaming() const noexcept {
+    return stream_ && stream_->active() && phase_ != CyclePhase::kStopped;
+  }
+  const trajectory::StreamingReference* stream() const noexcept {
+    return stream_ ? &*stream_ : nullptr;
+  }
+
   CycleStatus step(drivers::ActuatorSet& io, CycleRecord& record) noexcept;
 
   CyclePhase phase() const noexcept { return phase_; }
@@ -111,12 +139,19 @@ class ControlCycle {
  private:
   CycleStatus finish(drivers::ActuatorSet& io, CycleRecord& rec,
                      drivers::IoStatus io_status) noexcept;
+  // Set-up shared by start() and start_streaming(): the drives' feedback and the plate pose.
+  void read_pose(drivers::ActuatorSet& io, drivers::ActuatorFeedback& fb, model::JointVector& q,
+                 model::Pose& X);
+  // Set-up: arms the safety filter and resets the cycle state (last step of a start).
+  void arm(const drivers::ActuatorFeedback& fb, const model::JointVector& q, const model::Pose& X);
+  bool has_reference() const noexcept { return sequencer_.has_value() || stream_.has_value(); }
 
   const model::Model* model_;
   CycleConfig config_;
   StateEstimator estimator_;
   Controller controller_;
-  std::optional<trajectory::Sequencer> sequencer_;
+  std::optional<trajectory::Sequencer> sequencer_;        // reference: a program, or
+  std::optional<trajectory::StreamingReference> stream_;  // streamed setpoints
   CyclePhase phase_ = CyclePhase::kEnabling;
   std::int64_t cycle_ = 0;
   std::int64_t enabling_cycles_ = 0;

@@ -56,6 +56,24 @@ TrajectoryConfig load_trajectory_config(const YAML::Node& trajectory_node_in) {
   b.tolerance = reb.positive("tolerance", 1e-9);
   reb.reject_unknown_keys();
 
+  // Optional section: a configuration without it streams with the defaults.
+  StreamingLimits& st = cfg.streaming;
+  const StreamingLimits sd;
+  YamlReader str = root.child("streaming", false);
+  if (str.valid()) {
+    st.max_speed = str.positive("max_speed", sd.max_speed);
+    st.max_acceleration = str.positive("max_acceleration", sd.max_acceleration);
+    st.max_angular_speed = str.positive("max_angular_speed", sd.max_angular_speed);
+    st.max_angular_acceleration =
+        str.positive("max_angular_acceleration", sd.max_angular_acceleration);
+    str.require(st.max_acceleration <= l.max_plate_acceleration, "max_acceleration",
+                "must not exceed trajectory.limits.max_plate_acceleration");
+    str.require(st.max_angular_acceleration <= l.max_plate_angular_acceleration,
+                "max_angular_acceleration",
+                "must not exceed trajectory.limits.max_plate_angular_acceleration");
+    str.reject_unknown_keys();
+  }
+
   root.reject_unknown_keys();
   problems.finish();
   return cfg;

@@ -43,9 +43,20 @@ struct RebaseOptions {
   double tolerance = 1e-9;                // poses closer than this (m, rad) need no joining move
 };
 
+// The streaming reference (streaming_reference.hpp): how fast the plate may follow streamed
+// setpoints. Keys are trajectory.streaming.<name>; the accelerations must not exceed
+// trajectory.limits' and the speeds the safety layer's plate velocity limits.
+struct StreamingLimits {
+  double max_speed = 0.1;                 // |(x_dot, y_dot)| [m/s]
+  double max_acceleration = 1.0;          // |(x_dd, y_dd)| [m/s^2]
+  double max_angular_speed = 0.5;         // |theta_dot| [rad/s]
+  double max_angular_acceleration = 5.0;  // |theta_dd| [rad/s^2]
+};
+
 struct TrajectoryConfig {
   Limits limits;
   RebaseOptions rebase;
+  StreamingLimits streaming;
 };
 
 // Reads the `trajectory:` map (path "trajectory").

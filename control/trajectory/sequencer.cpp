@@ -34,14 +34,20 @@ SampleStatus Sequencer::sample_cartesian(double t, Reference& out) const noexcep
 SampleStatus Sequencer::sample(double t, Reference& out) noexcept {
   const SampleStatus st = sample_cartesian(t, out);
   if (st == SampleStatus::kInvalidTime) return st;
+  const SampleStatus js = joint_reference(*model_, data_, out);
+  return js == SampleStatus::kOk ? st : js;
+}
+
+SampleStatus joint_reference(const model::Model& model, model::Data& data,
+                             Reference& out) noexcept {
   const CartesianSample& c = out.cartesian;
   // IK, Jm and Jm_dot at (X_d, X_d_dot); q_d_dot = Jm X_d_dot.
-  out.model_status = model::update_kinematics(*model_, data_, c.X, c.X_dot);
+  out.model_status = model::update_kinematics(model, data, c.X, c.X_dot);
   if (out.model_status != model::Status::kOk) return SampleStatus::kKinematicsFailed;
-  out.q = data_.q;
-  out.q_dot = data_.q_dot;
-  model::joint_acceleration(data_, c.X_dot, c.X_dd, out.q_dd);  // Jm X_dd + Jm_dot X_dot
-  return st;
+  out.q = data.q;
+  out.q_dot = data.q_dot;
+  model::joint_acceleration(data, c.X_dot, c.X_dd, out.q_dd);  // Jm X_dd + Jm_dot X_dot
+  return SampleStatus::kOk;
 }
 
 }  // namespace dualv::trajectory

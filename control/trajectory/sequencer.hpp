@@ -34,6 +34,11 @@ struct Reference {
   model::Status model_status = model::Status::kOk;
 };
 
+// Fills out.q, q_dot, q_dd and model_status from out.cartesian through the model (the joint
+// half of Sequencer::sample, shared with the streaming reference). kKinematicsFailed when the
+// model refuses X_d, else kOk. noexcept, no allocation (data is preallocated for `model`).
+SampleStatus joint_reference(const model::Model& model, model::Data& data, Reference& out) noexcept;
+
 class Sequencer {
  public:
   // Set-up: keeps a reference to `model` (must outlive the sequencer) and preallocates its

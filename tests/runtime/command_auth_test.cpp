@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -255,6 +256,51 @@ TEST_F(KeyFile, EmptyKeyFolderWarnsAndMissingOneFails) {
   ASSERT_EQ(warnings.size(), 1u);
   EXPECT_NE(warnings[0].find("only e-stops"), std::string::npos);
   EXPECT_THROW(load_command_keys((dir_ / "missing").string()), ConfigError);
+}
+
+TEST_F(CommandAuth, SignedSetpointsAreAcceptedInOrderAndRefusedOtherwise) {
+  const auto sp = make_setpoint(0.01, 0.26, 0.1, kNow, 5, &op_);
+  auto r = verifier_.verify_setpoint(sp, kNow);
+  EXPECT_EQ(r.verdict, CommandVerdict::kAccepted) << r.reason;
+  EXPECT_EQ(r.setpoint.y, 0.26);
+  EXPECT_EQ(verifier_.verify_setpoint(sp, kNow).verdict, CommandVerdict::kReplayed);
+  EXPECT_EQ(verifier_.verify_setpoint(make_setpoint(0.0, 0.25, 0.0, kNow, 4, &op_), kNow).verdict,
+            CommandVerdict::kReplayed);  // out of order
+  EXPECT_EQ(
+      verifier_.verify_setpoint(make_setpoint(0.0, 0.25, 0.0, kNow, 6, nullptr), kNow).verdict,
+      CommandVerdict::kUnsigned);
+  auto tampered = make_setpoint(0.0, 0.25, 0.0, kNow, 7, &op_);
+  tampered.x = 0.09;  // moved after signing
+  EXPECT_EQ(verifier_.verify_setpoint(tampered, kNow).verdict, CommandVerdict::kBadSignature);
+  EXPECT_EQ(verifier_.verify_setpoint(make_setpoint(0.0, 0.25, 0.0, kNow - 600'000, 8, &op_), kNow)
+                .verdict,
+            CommandVerdict::kStale);  // older than max_setpoint_age_us, although a command may be
+  EXPECT_EQ(verifier_.verify_setpoint(make_setpoint(std::nan(""), 0.25, 0.0, kNow, 9, &op_), kNow)
+                .verdict,
+            CommandVerdict::kMalformed);
+  EXPECT_EQ(verifier_.verify_setpoint(make_setpoint(0.0, 0.25, 0.0, kNow, 10, &op_), kNow).verdict,
+            CommandVerdict::kAccepted);
+  EXPECT_EQ(verifier_.setpoint_count(CommandVerdict::kAccepted), 2u);
+  EXPECT_EQ(verifier_.count(CommandVerdict::kAccepted), 0u);  // commands counted apart
+}
+
+TEST_F(CommandAuth, SetpointAndCommandSequencesAreIndependentAndSignaturesDoNotCross) {
+  // A stream at sequence 1000 does not make a later command with a lower sequence a replay.
+  EXPECT_EQ(
+      verifier_.verify_setpoint(make_setpoint(0.0, 0.25, 0.0, kNow, 1000, &op_), kNow).verdict,
+      CommandVerdict::kAccepted);
+  EXPECT_EQ(verifier_.verify(signed_cmd(CommandKind::kStop, 10), kNow).verdict,
+            CommandVerdict::kAccepted);
+  // A setpoint's HMAC over its own encoding: the bytes of a setpoint never verify as a command.
+  const auto sp = make_setpoint(0.0, 0.25, 0.0, kNow, 1001, &op_);
+  std::vector<unsigned char> b(static_cast<std::size_t>(sp.getEncodedSize()));
+  sp.encode(b.data(), 0, static_cast<int>(b.size()));
+  EXPECT_EQ(verifier_.verify_encoded(b.data(), b.size(), kNow).verdict, CommandVerdict::kMalformed);
+  EXPECT_EQ(verifier_.verify_setpoint_encoded(b.data(), b.size(), kNow).verdict,
+            CommandVerdict::kAccepted);
+  const auto cmd = encode(signed_cmd(CommandKind::kStop, 11));
+  EXPECT_EQ(verifier_.verify_setpoint_encoded(cmd.data(), cmd.size(), kNow).verdict,
+            CommandVerdict::kMalformed);
 }
 
 }  // namespace

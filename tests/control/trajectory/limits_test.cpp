@@ -69,6 +69,25 @@ TEST(Limits, RefusesNonPositiveLimit) {
                "trajectory.limits.max_joint_torque: must be > 0 (got -40)");
 }
 
+TEST(Limits, StreamingSectionIsOptionalAndChecked) {
+  const StreamingLimits d;
+  EXPECT_EQ(load(kGood).streaming.max_speed, d.max_speed);  // absent: the defaults
+  const std::string with = std::string(kGood) +
+                           "  streaming: {max_speed: 0.2, max_acceleration: 3, "
+                           "max_angular_speed: 1, max_angular_acceleration: 10}\n";
+  const TrajectoryConfig c = load(with);
+  EXPECT_EQ(c.streaming.max_speed, 0.2);
+  EXPECT_EQ(c.streaming.max_acceleration, 3);
+  EXPECT_EQ(c.streaming.max_angular_acceleration, 10);
+  expect_error(with, "max_acceleration: 3", "max_acceleration: 30",
+               "trajectory.streaming.max_acceleration: must not exceed");
+  expect_error(with, "max_angular_acceleration: 10", "max_angular_acceleration: 200",
+               "trajectory.streaming.max_angular_acceleration: must not exceed");
+  expect_error(with, "max_speed: 0.2", "max_speed: 0", "trajectory.streaming.max_speed");
+  expect_error(with, "max_speed: 0.2", "max_speed: 0.2, jerk: 1",
+               "trajectory.streaming.jerk: unknown key");
+}
+
 TEST(Limits, RefusesEmptyInterval) {
   expect_error(kGood, "x: [-0.1, 0.1]", "x: [0.1, -0.1]",
                "trajectory.limits.workspace.x: must have min < max");
