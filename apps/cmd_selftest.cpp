@@ -78,6 +78,7 @@ class CanBackend final : public Backend {
     clock_gettime(CLOCK_MONOTONIC, &next_);
   }
   drivers::ActuatorSet& drives() override { return drivers_->actuators(); }
+  const drivers::CanopenActuatorSet& canopen() const { return drivers_->actuators(); }
   void end_of_cycle() override {
     next_.tv_nsec += period_ns_;
     while (next_.tv_nsec >= 1'000'000'000) {
@@ -495,6 +496,24 @@ int selftest(const SelftestArgs& args) {
       writer.drain(ring);
     }
     fmt::print("\nfault log: {} events in {}\n", log.size(), args.fault_log);
+  }
+  if (auto* bus = dynamic_cast<CanBackend*>(can.get())) {
+    // What the master counted on the bus (the HIL tests check a frame fault was counted).
+    const drivers::CanopenActuatorSet& set = bus->canopen();
+    const drivers::CanopenCounters& c = set.counters();
+    fmt::print(
+        "\nbus: {} SYNCs sent, ENOBUFS {}, send errors {}, bus-off {}; received: foreign SYNCs "
+        "{}, unknown frames {}, malformed frames {}, ignored frames {}\n",
+        c.sync_sent, c.tx_would_block, c.tx_errors, c.bus_off, c.foreign_sync, c.unknown_frames,
+        c.malformed_frames, c.ignored_frames);
+    for (int i = 0; i < set.size(); ++i) {
+      const drivers::DriveCounters& d = set.drive_counters(i);
+      fmt::print(
+          "  {}; TPDOs {}, missed {}, late {}, duplicate {}, out of order {}, malformed {}, "
+          "EMCYs {}, heartbeat timeouts {}, boot-ups {}\n",
+          drivers::describe(set.health(i)), d.tpdos, d.missed, d.late, d.duplicates, d.out_of_order,
+          d.malformed, d.emcys, d.heartbeat_timeouts, d.boot_ups);
+    }
   }
   fmt::print("\n{} of {} scenarios passed{}\n", ran - failed, ran, failed ? ": FAILED" : "");
   return failed ? 1 : 0;

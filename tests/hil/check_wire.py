@@ -8,6 +8,19 @@ torque 6076h, little endian; firmware_if/pdo.hpp) and EMCY (80h + node) frames, 
                      target torque on the wire is 0 (STO within 2 control cycles)
   torque-off-at-end: every node's last RPDO carries 0 torque and a controlword that is not
                      "enable operation" (CiA 402: low nibble 0Fh)
+  after-bad-tpdo:    the first corrupted TPDO1 on the wire (DLC not 6, or a position step
+                     above 2^16 counts from the node's previous TPDO1) is the trigger; from
+                     the --within'th SYNC after it every target torque is 0, and torque off
+                     at the end
+  no-stop:           the machine was never stopped: every node's last RPDO still has
+                     "enable operation" (a fault below its watchdog must be tolerated)
+  after-busoff:      a bus-off error frame (CAN_ERR_FLAG | CAN_ERR_BUSOFF) is on the wire and
+                     after it the master sends nothing (no SYNC, RPDO, NMT, SDO request nor
+                     its heartbeat 700h + can.master.node_id); with --drives-capture (the
+                     drives' side of the gateway) every drive then stops on its own: an EMCY
+                     with a non-zero code from each node after the bus-off
+--within N (default 3, "STO within 2 control cycles"): the SYNC count for after-emcy and
+after-bad-tpdo.
 Standard library only (runs with Debian's /usr/bin/python3 inside the UML guest).
 """
 import argparse
@@ -23,6 +36,23 @@ def config_numbers(path):
     return torque_max, rated
 
 
+def config_nodes(path):
+    text = open(path).read()
+    master = int(re.search(r"\n\s+master:\s*\n\s+node_id:\s*([0-9]+)", text).group(1))
+    drives = [int(n) for n in re.findall(r"\{node_id:\s*([0-9]+),", text)]
+    return master, drives
+
+
+CAN_ERR_FLAG = 0x20000000
+CAN_ERR_BUSOFF = 0x40
+
+
+def from_master(cob, master):
+    """COB-IDs only the master sends (DESIGN.md, CAN contract)."""
+    return (cob == 0x000 or cob == 0x080 or 0x200 <= cob <= 0x27F or 0x600 <= cob <= 0x67F
+            or cob == 0x700 + master)
+
+
 def frames(path):
     pat = re.compile(r"^\((\d+\.\d+)\)\s+(\S+)\s+([0-9A-Fa-f]+)#([0-9A-Fa-f]*)")
     for line in open(path):
@@ -35,10 +65,14 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--config", required=True)
     ap.add_argument("--mode", default="limit-only",
-                    choices=["limit-only", "after-emcy", "torque-off-at-end"])
+                    choices=["limit-only", "after-emcy", "torque-off-at-end", "after-bad-tpdo",
+                             "no-stop", "after-busoff"])
+    ap.add_argument("--within", type=int, default=3)
+    ap.add_argument("--drives-capture")
     ap.add_argument("capture")
     a = ap.parse_args()
     torque_max, rated = config_numbers(a.config)
+    master, drive_nodes = config_nodes(a.config)
     limit = torque_max + 0.5 * rated / 1000.0
     errors = []
     rpdos = moving = 0
@@ -47,10 +81,31 @@ def main():
     emcy_at = None
     syncs_after_emcy = 0
     nonzero_after = []
+    bad_tpdo = None  # (ts, text) of the first corrupted TPDO1
+    prev_pos = {}
+    busoff_at = None
+    after_busoff = []
     for ts, cob, data in frames(a.capture):
+        if cob & CAN_ERR_FLAG:
+            if cob & CAN_ERR_BUSOFF and busoff_at is None:
+                busoff_at = ts
+            continue
+        if busoff_at is not None and from_master(cob, master):
+            after_busoff.append(f"{ts:.6f} {cob:03X}#{data.hex().upper()} sent after bus-off")
+        if 0x181 <= cob <= 0x1FF and bad_tpdo is None:
+            if len(data) != 6:
+                bad_tpdo = (ts, f"{cob:03X} with DLC {len(data)}")
+            else:
+                pos = int.from_bytes(data[2:6], "little", signed=True)
+                if cob in prev_pos and abs(pos - prev_pos[cob]) > 1 << 16:
+                    bad_tpdo = (ts, f"{cob:03X} position {prev_pos[cob]} -> {pos}")
+                prev_pos[cob] = pos
+            if bad_tpdo is not None and a.mode == "after-bad-tpdo":
+                emcy_at = ts  # the trigger: the same SYNC-counted check as after an EMCY
         if cob == 0x080 and emcy_at is not None:
             syncs_after_emcy += 1
-        if 0x081 <= cob <= 0x0FF and len(data) >= 2 and (data[0] | data[1] << 8) != 0:
+        if (a.mode == "after-emcy" and 0x081 <= cob <= 0x0FF and len(data) >= 2
+                and (data[0] | data[1] << 8) != 0):
             if emcy_at is None:
                 emcy_at = ts
         if 0x201 <= cob <= 0x27F and len(data) >= 4:
@@ -63,15 +118,47 @@ def main():
             if abs(nm) > limit:
                 errors.append(f"{ts:.6f} {cob:03X}: {nm:.2f} N m above the limit {torque_max}")
             last[cob] = (cw, tq, ts)
-            if emcy_at is not None and syncs_after_emcy >= 3 and tq != 0:
-                nonzero_after.append(f"{ts:.6f} {cob:03X}: {nm:.2f} N m after the EMCY")
+            if emcy_at is not None and syncs_after_emcy >= a.within and tq != 0:
+                nonzero_after.append(f"{ts:.6f} {cob:03X}: {nm:.2f} N m {syncs_after_emcy} "
+                                     f"SYNCs after the trigger")
     if rpdos == 0 or moving == 0:
         errors.append(f"no torque on the wire ({rpdos} RPDOs): the robot never moved")
     if a.mode == "after-emcy":
         if emcy_at is None:
             errors.append("no EMCY on the wire")
         errors += nonzero_after[:5]
-    if a.mode in ("after-emcy", "torque-off-at-end"):
+    if a.mode == "after-bad-tpdo":
+        if bad_tpdo is None:
+            errors.append("no corrupted TPDO1 on the wire")
+        else:
+            print(f"check_wire: first corrupted TPDO1 at {bad_tpdo[0]:.6f}: {bad_tpdo[1]}")
+        errors += nonzero_after[:5]
+    if a.mode == "no-stop":
+        for cob, (cw, tq, ts) in sorted(last.items()):
+            if (cw & 0x0F) != 0x0F:
+                errors.append(f"{cob:03X}: last RPDO at {ts:.6f}: controlword {cw:04X} "
+                              f"(stopped; expected still enabled)")
+    if a.mode == "after-busoff":
+        if busoff_at is None:
+            errors.append("no bus-off error frame on the wire")
+        else:
+            errors += after_busoff[:5]
+            if a.drives_capture:
+                stopped = {}
+                for ts, cob, data in frames(a.drives_capture):
+                    node = cob - 0x080
+                    if (node in drive_nodes and ts > busoff_at and len(data) >= 2
+                            and (data[0] | data[1] << 8) != 0 and node not in stopped):
+                        stopped[node] = (ts, data[0] | data[1] << 8)
+                for n in drive_nodes:
+                    if n in stopped:
+                        print(f"check_wire: node {n} stopped on its own: EMCY "
+                              f"{stopped[n][1]:04X}h {stopped[n][0] - busoff_at:.3f} s after "
+                              f"the bus-off")
+                    else:
+                        errors.append(f"node {n}: no EMCY after the bus-off (did not stop on "
+                                      f"its own)")
+    if a.mode in ("after-emcy", "torque-off-at-end", "after-bad-tpdo"):
         for cob, (cw, tq, ts) in sorted(last.items()):
             if tq != 0 or (cw & 0x0F) == 0x0F:
                 errors.append(f"{cob:03X}: last RPDO at {ts:.6f}: controlword {cw:04X}, "
