@@ -341,22 +341,7 @@ int run(const RunArgs& args) {
     fmt::print("\n{}", control::format_loop_stats(runs.back().loop));
   if (drives) {
     // What crossed the bus, as the master counted it (the HIL tests compare it with candump).
-    const drivers::CanopenActuatorSet& set = drives->actuators();
-    const drivers::CanopenCounters& c = set.counters();
-    fmt::print(
-        "\nbus: {} SYNCs sent ({} before the program: priming), ENOBUFS {}, send errors {}, "
-        "bus-off {}; received: foreign SYNCs {}, unknown frames {}, malformed frames {}, "
-        "ignored frames {}\n",
-        c.sync_sent, syncs_before, c.tx_would_block, c.tx_errors, c.bus_off, c.foreign_sync,
-        c.unknown_frames, c.malformed_frames, c.ignored_frames);
-    for (int i = 0; i < set.size(); ++i) {
-      const drivers::DriveCounters& d = set.drive_counters(i);
-      fmt::print(
-          "  {}; TPDOs {}, missed {}, late {}, duplicate {}, out of order {}, malformed {}, "
-          "EMCYs {}, heartbeat timeouts {}, boot-ups {}\n",
-          drivers::describe(set.health(i)), d.tpdos, d.missed, d.late, d.duplicates, d.out_of_order,
-          d.malformed, d.emcys, d.heartbeat_timeouts, d.boot_ups);
-    }
+    fmt::print("\n{}", bus_report(drives->actuators(), static_cast<std::int64_t>(syncs_before)));
   }
   write_csv(out, runs);
   if (args.plots) {

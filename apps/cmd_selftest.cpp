@@ -24,6 +24,7 @@
 
 #include "apps/commands.hpp"
 #include "apps/config_path.hpp"
+#include "apps/experiment/report.hpp"
 #include "apps/experiment/robot_config.hpp"
 #include "common/yaml_reader.hpp"
 #include "control/loop/control_cycle.hpp"
@@ -499,21 +500,7 @@ int selftest(const SelftestArgs& args) {
   }
   if (auto* bus = dynamic_cast<CanBackend*>(can.get())) {
     // What the master counted on the bus (the HIL tests check a frame fault was counted).
-    const drivers::CanopenActuatorSet& set = bus->canopen();
-    const drivers::CanopenCounters& c = set.counters();
-    fmt::print(
-        "\nbus: {} SYNCs sent, ENOBUFS {}, send errors {}, bus-off {}; received: foreign SYNCs "
-        "{}, unknown frames {}, malformed frames {}, ignored frames {}\n",
-        c.sync_sent, c.tx_would_block, c.tx_errors, c.bus_off, c.foreign_sync, c.unknown_frames,
-        c.malformed_frames, c.ignored_frames);
-    for (int i = 0; i < set.size(); ++i) {
-      const drivers::DriveCounters& d = set.drive_counters(i);
-      fmt::print(
-          "  {}; TPDOs {}, missed {}, late {}, duplicate {}, out of order {}, malformed {}, "
-          "EMCYs {}, heartbeat timeouts {}, boot-ups {}\n",
-          drivers::describe(set.health(i)), d.tpdos, d.missed, d.late, d.duplicates, d.out_of_order,
-          d.malformed, d.emcys, d.heartbeat_timeouts, d.boot_ups);
-    }
+    fmt::print("\n{}", bus_report(bus->canopen()));
   }
   fmt::print("\n{} of {} scenarios passed{}\n", ran - failed, ran, failed ? ": FAILED" : "");
   return failed ? 1 : 0;

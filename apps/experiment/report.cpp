@@ -131,4 +131,24 @@ std::string draw_plots(const std::string& dir) {
   return "";
 }
 
+std::string bus_report(const drivers::CanopenActuatorSet& set, std::int64_t syncs_before) {
+  const drivers::CanopenCounters& c = set.counters();
+  std::string out = fmt::format("bus: {} SYNCs sent", c.sync_sent);
+  if (syncs_before >= 0) out += fmt::format(" ({} before the program: priming)", syncs_before);
+  out += fmt::format(
+      ", ENOBUFS {}, send errors {}, bus-off {}; received: foreign SYNCs {}, unknown frames {}, "
+      "malformed frames {}, ignored frames {}\n",
+      c.tx_would_block, c.tx_errors, c.bus_off, c.foreign_sync, c.unknown_frames,
+      c.malformed_frames, c.ignored_frames);
+  for (int i = 0; i < set.size(); ++i) {
+    const drivers::DriveCounters& d = set.drive_counters(i);
+    out += fmt::format(
+        "  {}; TPDOs {}, missed {}, late {}, duplicate {}, out of order {}, malformed {}, "
+        "EMCYs {}, heartbeat timeouts {}, boot-ups {}\n",
+        drivers::describe(set.health(i)), d.tpdos, d.missed, d.late, d.duplicates, d.out_of_order,
+        d.malformed, d.emcys, d.heartbeat_timeouts, d.boot_ups);
+  }
+  return out;
+}
+
 }  // namespace dualv::apps

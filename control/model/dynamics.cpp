@@ -112,6 +112,22 @@ struct Sums {
   S.g2 -= ax2 * gravity.x() + ay2 * gravity.y();
 }
 
+// A body turning with angular velocity w X_dot (angular acceleration w X_dd + bias) about a
+// fixed axis or its centre of mass, with inertia I about it: M += I w w^T, h += I bias w.
+[[gnu::always_inline]] inline void add_rotation(double I, const Eigen::Vector3d& w, double bias,
+                                                Sums& S) noexcept {
+  const double a0 = I * w[0], a1 = I * w[1], a2 = I * w[2];
+  S.m00 += a0 * w[0];
+  S.m01 += a0 * w[1];
+  S.m02 += a0 * w[2];
+  S.m11 += a1 * w[1];
+  S.m12 += a1 * w[2];
+  S.m22 += a2 * w[2];
+  S.h0 += a0 * bias;
+  S.h1 += a1 * bias;
+  S.h2 += a2 * bias;
+}
+
 }  // namespace
 
 Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twist& X_dot) noexcept {
@@ -174,16 +190,7 @@ Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twis
     // a rotation keeps lengths): M += I_A jm jm^T, h += I_A qdd_bias jm (the centripetal
     // terms are orthogonal to E rc and E a), g -= (m E rc + mB E a) . gravity jm.
     const double IA = ch.crank.inertia + ch.crank.mass * ch.crank.com.squaredNorm() + mB * l1 * l1;
-    const double a0 = IA * jm[0], a1 = IA * jm[1], a2 = IA * jm[2];
-    S.m00 += a0 * jm[0];
-    S.m01 += a0 * jm[1];
-    S.m02 += a0 * jm[2];
-    S.m11 += a1 * jm[1];
-    S.m12 += a1 * jm[2];
-    S.m22 += a2 * jm[2];
-    S.h0 += a0 * qdd_bias;
-    S.h1 += a1 * qdd_bias;
-    S.h2 += a2 * qdd_bias;
+    add_rotation(IA, jm, qdd_bias, S);
     if (has_gravity) {
       const Vec2 dir = a / l1;  // |a| = l1 (IK)
       const Vec2 rc1(dir.x() * ch.crank.com.x() - dir.y() * ch.crank.com.y(),
@@ -202,16 +209,7 @@ Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twis
       pm_rr += mC * ch.plate_anchor.squaredNorm();  // |r| = |c_i|
       // Rotary share: M += J Jphi Jphi^T, h += J bias_phi Jphi (no gravity: no mass).
       const double J = ch.coupler.inertia - ch.coupler.mass * d * (l2 - d);
-      const double j0 = J * Jphi[0], j1 = J * Jphi[1], j2 = J * Jphi[2];
-      S.m00 += j0 * Jphi[0];
-      S.m01 += j0 * Jphi[1];
-      S.m02 += j0 * Jphi[2];
-      S.m11 += j1 * Jphi[1];
-      S.m12 += j1 * Jphi[2];
-      S.m22 += j2 * Jphi[2];
-      S.h0 += j0 * bias_phi;
-      S.h1 += j1 * bias_phi;
-      S.h2 += j2 * bias_phi;
+      add_rotation(J, Jphi, bias_phi, S);
       continue;
     }
     // General coupler: angle phi of u = C_i - B_i, centre of mass rc2 from B_i.
