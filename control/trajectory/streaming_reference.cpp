@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <unsupported/Eigen/MatrixFunctions>
 
 namespace dualv::trajectory {
 
@@ -26,23 +27,6 @@ const char* to_string(TargetStatus s) noexcept {
 namespace {
 
 using Matrix5 = Eigen::Matrix<double, 5, 5>;
-
-// exp(A) by scaling and squaring with a Taylor series: A is small and fixed-size, so this is
-// accurate to rounding (set-up only).
-Matrix5 expm(const Matrix5& A) {
-  const double norm = A.cwiseAbs().rowwise().sum().maxCoeff();
-  int squarings = 0;
-  while (norm / std::ldexp(1.0, squarings) > 0.25) ++squarings;
-  const Matrix5 B = A / std::ldexp(1.0, squarings);
-  Matrix5 term = Matrix5::Identity();
-  Matrix5 sum = Matrix5::Identity();
-  for (int k = 1; k <= 20; ++k) {
-    term = term * B / static_cast<double>(k);
-    sum += term;
-  }
-  for (int i = 0; i < squarings; ++i) sum = sum * sum;
-  return sum;
-}
 
 bool finite(const Pose& p) noexcept {
   return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
@@ -78,7 +62,7 @@ StreamingReference::StreamingReference(const model::Model& model, const Streamin
   M(2, 1) = w_;
   M(2, 2) = -w_;
   M(3, 4) = 1.0;
-  const Matrix5 phi = expm(M * h_);
+  const Matrix5 phi = (M * h_).exp();  // Eigen's Pade approximant with scaling and squaring
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 5; ++j) phi_[i][j] = phi(i, j);
   reset(model.home);
