@@ -165,6 +165,7 @@ Plant::Plant(const model::Model& configured, const PlantConfig& config)
   tau0_ = model::JointVector::Zero(n);
   motor_ = model::JointVector::Zero(n);
   friction_ = model::JointVector::Zero(n);
+  inv_smoothing_velocity_ = 1.0 / config_.friction.smoothing_velocity;
   out_.q = model::JointVector::Zero(n);
   out_.q_dot = model::JointVector::Zero(n);
   out_.q_measured = model::JointVector::Zero(n);
@@ -229,7 +230,7 @@ void Plant::friction(const model::JointVector& q_dot, model::JointVector& f) con
     return;
   }
   for (int i = 0; i < true_model_.n; ++i) {
-    const double z = q_dot[i] / fr.smoothing_velocity;
+    const double z = q_dot[i] * inv_smoothing_velocity_;
     // tanh(z) = 1 - 2 / (exp(2 z) + 1): one exp is several times cheaper than std::tanh
     // (which goes through expm1) on this hot path; the cancellation near z = 0 costs an
     // absolute 1e-16, nothing for a friction torque. It rounds to +-1 for |z| > 19.1.

@@ -196,6 +196,9 @@ class Plant {
   model::JointVector tau0_;      // motor torque at the start of the current RK4 step [N m]
   model::JointVector motor_;     // scratch: motor torque at a stage [N m]
   model::JointVector friction_;  // scratch: friction at a stage [N m]
+  // 1 / friction.smoothing_velocity: a multiplication per joint and stage, not a division
+  // (divisions bound this loop's speed).
+  double inv_smoothing_velocity_ = 0.0;
   PlantOutput out_;
 };
 
