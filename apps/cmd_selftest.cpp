@@ -161,6 +161,13 @@ class Run {
   int forced_misses_ = 0;
   bool hook_nan_ = false;
   bool hook_big_ = false;
+  bool hook_step_ = false;
+  // A limit test: the configuration's limits with one changed (`change`) from now on.
+  void test_limit(const std::function<void(safety::SafetyConfig&)>& change) {
+    safety::SafetyConfig c = cycle_.safety().config();
+    change(c);
+    cycle_.safety().set_limits_for_test(c);
+  }
 
  private:
   const RobotConfig& cfg_;
@@ -177,6 +184,9 @@ void misbehave(void* ctx, std::int64_t, drivers::ActuatorCommand& c) noexcept {
     if (run->hook_big_) c.torque[i] = (i % 2 ? -1.0 : 1.0) * 10.0 * 60.0;  // 10x the default limit
     if (run->hook_nan_ && i == 1) c.torque[i] = std::numeric_limits<double>::quiet_NaN();
   }
+  // A step of three times the allowed torque change per cycle on motor 1, well inside the
+  // absolute limit: only the rate monitor can see it.
+  if (run->hook_step_) c.torque[0] += 3.0 * run->cycle().safety().limits().torque_step;
 }
 
 std::vector<Scenario> scenarios(const RobotConfig& cfg) {
@@ -218,6 +228,32 @@ std::vector<Scenario> scenarios(const RobotConfig& cfg) {
        [](Run& r, int) { r.hook_nan_ = true; }},
       {"deadline misses", Reaction::kSto, Fault::kDeadlineMisses, false,
        [misses](Run& r, int k) { r.forced_misses_ = std::min(k + 1, misses); }},
+      {"controller torque step", Reaction::kSs1, Fault::kTorqueRate, false,
+       [](Run& r, int k) { r.hook_step_ = k == 0; }},
+      // Limit tests, as on a machine being commissioned: one limit at a time is set below
+      // what the motion in progress does, and the monitor must trip and stop the robot.
+      {"limit test: joint velocity", Reaction::kSs1, Fault::kJointVelocity, false,
+       [](Run& r, int k) {
+         if (k == 0) r.test_limit([](safety::SafetyConfig& c) { c.max_joint_velocity = 1e-4; });
+       }},
+      {"limit test: plate velocity", Reaction::kSs1, Fault::kPlateVelocity, false,
+       [](Run& r, int k) {
+         if (k == 0) r.test_limit([](safety::SafetyConfig& c) { c.max_plate_velocity = 1e-5; });
+       }},
+      {"limit test: workspace", Reaction::kSs1, Fault::kWorkspace, false,
+       [](Run& r, int k) {
+         const double x = r.rec().est.X.x();
+         if (k == 0)
+           r.test_limit([x](safety::SafetyConfig& c) { c.workspace.x = {x + 0.01, x + 0.02}; });
+       }},
+      {"limit test: singularity distance", Reaction::kSs1, Fault::kSingularity, false,
+       [](Run& r, int k) {
+         if (k == 0) r.test_limit([](safety::SafetyConfig& c) { c.min_parallel_singularity = 10; });
+       }},
+      {"limit test: tracking error", Reaction::kSs1, Fault::kTrackingError, false,
+       [](Run& r, int k) {
+         if (k == 0) r.test_limit([](safety::SafetyConfig& c) { c.max_tracking_error = 1e-7; });
+       }},
   };
 }
 

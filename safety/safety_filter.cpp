@@ -107,6 +107,13 @@ SafetyFilter::SafetyFilter(const model::Model& model, const SafetyConfig& config
   last_out_.request = DriveRequest::kDisable;
 }
 
+void SafetyFilter::set_limits_for_test(const SafetyConfig& config) {
+  const std::string problems = validate(config);
+  if (!problems.empty()) throw std::invalid_argument("safety limit test: " + problems);
+  config_ = config;
+  limits_ = cycle_limits(config, period_);
+}
+
 void SafetyFilter::Detection::add(Fault f, int drive_index, double v, double lim,
                                   int latency_cycles) noexcept {
   const auto i = static_cast<std::size_t>(f);

@@ -107,6 +107,11 @@ class SafetyFilter {
   ArmStatus arm(const drivers::ActuatorFeedback& feedback, std::int64_t time_ns = 0) noexcept;
   // A normal end of operation: -> kDisabled (torque 0, drives disabled), nothing latched.
   void disarm() noexcept;
+  // Commissioning limit tests only (`dualv selftest`): new limits from the next update() on,
+  // e.g. a joint velocity limit below the motion in progress, to prove that the monitor trips
+  // and the stop follows on the real machine. Never in a production run. Set-up, not RT:
+  // throws std::invalid_argument as the constructor does.
+  void set_limits_for_test(const SafetyConfig& config);
 
   // One cycle (see the header comment). `out` is the command to write.
   SafetyState update(const drivers::ActuatorFeedback& feedback, const SafetyInput& in,
