@@ -73,3 +73,29 @@ void BM_ForwardKinematicsWarmSeed(benchmark::State& state) {
 BENCHMARK(BM_ForwardKinematicsWarmSeed);
 
 }  // namespace
+
+// The plant's right-hand side in parts (README's performance notes): the velocity kinematics
+// alone, then with the mass matrix and bias terms.
+void BM_VelocityKinematics(benchmark::State& state) {
+  const Model& m = dual_v();
+  Data d(m);
+  const Pose X = m.home + Pose(0.01, -0.01, 0.05);
+  const Twist Xd(0.1, 0.05, 0.2);
+  for (auto _ : state) {
+    update_velocity_kinematics(m, d, X, Xd);
+    benchmark::DoNotOptimize(d.qdd_bias.data());
+  }
+}
+BENCHMARK(BM_VelocityKinematics);
+
+void BM_UpdateDynamics(benchmark::State& state) {
+  const Model& m = dual_v();
+  Data d(m);
+  const Pose X = m.home + Pose(0.01, -0.01, 0.05);
+  const Twist Xd(0.1, 0.05, 0.2);
+  for (auto _ : state) {
+    update_dynamics(m, d, X, Xd);
+    benchmark::DoNotOptimize(d.M.data());
+  }
+}
+BENCHMARK(BM_UpdateDynamics);
