@@ -170,7 +170,8 @@ Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twis
     const double l1 = ch.crank_length, l2 = ch.coupler_length;
     // |u| = l2 (IK), and C_dot - B_dot = phi_dot E u: phi_dot = Jphi X_dot with
     // Jphi = (E u)^T (C_dot - B_dot) / l2^2 = ((-u_y, u_x, u . r) - (u . a) jm) / l2^2.
-    const double inv_uu = 1.0 / (l2 * l2);
+    const double inv_l2 = 1.0 / l2;  // the one division here (they bound this loop's speed)
+    const double inv_uu = inv_l2 * inv_l2;
     const Eigen::Vector3d Jphi =
         (Eigen::Vector3d(-u.y(), u.x(), u.dot(r)) - u.dot(a) * jm) * inv_uu;
     const Vec2 bias_B = perp(a) * qdd_bias - qd * qd * a;
@@ -183,7 +184,7 @@ Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twis
     // B_i turns with the crank, the one at C_i rides on the plate. Off the axis, the general
     // body form below.
     const bool split = ch.coupler.com.y() == 0.0;
-    const double mB = split ? ch.coupler.mass * (1.0 - ch.coupler.com.x() / l2) : 0.0;
+    const double mB = split ? ch.coupler.mass * (1.0 - ch.coupler.com.x() * inv_l2) : 0.0;
 
     // Crank (+ the coupler's share at B_i): a pure rotation about A_i, so its share
     // collapses to the inertia about the axis, I_A = I + m |rc|^2 + mB l1^2 (|rc| = |com|:
@@ -203,7 +204,7 @@ Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twis
 
     if (split) {
       const double d = ch.coupler.com.x();
-      const double mC = ch.coupler.mass * d / l2;
+      const double mC = ch.coupler.mass * d * inv_l2;
       pm += mC;
       pm_r += mC * r;
       pm_rr += mC * ch.plate_anchor.squaredNorm();  // |r| = |c_i|
@@ -214,7 +215,7 @@ Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twis
     }
     // General coupler: angle phi of u = C_i - B_i, centre of mass rc2 from B_i.
     const double phi_dot = Jphi.dot(X_dot);
-    const Vec2 udir = u / l2;
+    const Vec2 udir = u * inv_l2;
     const Vec2 rc2(udir.x() * ch.coupler.com.x() - udir.y() * ch.coupler.com.y(),
                    udir.y() * ch.coupler.com.x() + udir.x() * ch.coupler.com.y());
     BodyRows b;

@@ -39,17 +39,20 @@ Status chain_geometry(const Model& model, Data& data, const Pose& X) noexcept {
     cs.r = Vec2(c * pa.x() - s * pa.y(), s * pa.x() + c * pa.y());
     cs.anchor = p + cs.r;
     const Vec2 d = cs.anchor - ch.base;
-    const double dist = d.norm();
+    const double dd = d.squaredNorm();
     const double l1 = ch.crank_length, l2 = ch.coupler_length;
-    if (dist <= 0.0) return Status::kUnreachable;
-    const double cos_gamma = (l1 * l1 + dist * dist - l2 * l2) / (2.0 * l1 * dist);
-    if (!(cos_gamma >= -1.0 && cos_gamma <= 1.0)) return Status::kUnreachable;
-    // q_i = atan2(d) + s_i gamma, gamma = acos(cos_gamma) in [0, pi] (DESIGN.md). The crank
-    // direction is d rotated by s_i gamma, built from cos/sin gamma without acos, cos, sin:
-    // a = l1 (cos_gamma d/|d| + s_i sin_gamma E d/|d|).
-    const double sin_gamma = std::sqrt((1.0 - cos_gamma) * (1.0 + cos_gamma));
-    const Vec2 dh = d * (1.0 / dist);
-    cs.crank = l1 * (cos_gamma * dh + (ch.working_mode * sin_gamma) * perp(dh));
+    if (!(dd > 0.0)) return Status::kUnreachable;
+    // q_i = atan2(d) + s_i gamma, gamma = acos((l1^2 + |d|^2 - l2^2) / (2 l1 |d|)) in [0, pi]
+    // (DESIGN.md). The crank is d rotated by s_i gamma and scaled to l1; as the intersection
+    // of the two circles: a = k d + s_i m E d with k = l1 cos(gamma) / |d|
+    // = (l1^2 + |d|^2 - l2^2) / (2 |d|^2) and m = l1 sin(gamma) / |d| = sqrt(l1^2 / |d|^2 - k^2):
+    // one division and one square root (|d| itself is never needed).
+    const double inv_dd = 1.0 / dd;
+    const double k = (l1 * l1 + dd - l2 * l2) * 0.5 * inv_dd;
+    const double m2 = l1 * l1 * inv_dd - k * k;  // >= 0 iff |cos(gamma)| <= 1
+    if (!(m2 >= 0.0)) return Status::kUnreachable;
+    const double m = ch.working_mode * std::sqrt(m2);
+    cs.crank = k * d + m * perp(d);
     cs.elbow = ch.base + cs.crank;
     cs.coupler = cs.anchor - cs.elbow;
   }
@@ -115,9 +118,13 @@ Status jacobian(const Model& model, Data& data, const Twist& X_dot) noexcept {
       const Vec2 u_dot = X_dot.head<2>() + r_dot - a_dot;
       const Eigen::RowVector3d num_dot(u_dot.x(), u_dot.y(), cross(r_dot, u) + cross(r, u_dot));
       const double den_dot = cross(a_dot, u) + cross(a, u_dot);
-      const Eigen::RowVector3d row_dot = (num_dot - row * den_dot) * inv_den;
-      if constexpr (P == Parts::kAll) data.Jm_dot.row(i) = row_dot;
-      data.qdd_bias[i] = row_dot.dot(X_dot);
+      if constexpr (P == Parts::kAll) {
+        const Eigen::RowVector3d row_dot = (num_dot - row * den_dot) * inv_den;
+        data.Jm_dot.row(i) = row_dot;
+        data.qdd_bias[i] = row_dot.dot(X_dot);
+      } else {  // the same, without the row: (num_dot X_dot - q_dot den_dot) / den
+        data.qdd_bias[i] = (num_dot.dot(X_dot) - qd * den_dot) * inv_den;
+      }
     }
   }
   return Status::kOk;

@@ -4,8 +4,9 @@
 
 namespace dualv::model {
 
-// Jm^T Jm counts as singular (kParallelSingular) when a pivot of its LDL^T falls below this
-// times its largest diagonal entry (control/model/solve_spd3.hpp).
+// Jm^T Jm counts as singular (kParallelSingular) when its determinant falls below this times
+// its largest diagonal entry cubed: always when its condition number exceeds 2.7e13
+// (control/model/solve_spd3.hpp, Ldlt3).
 inline constexpr double kParallelSingularTolerance = 1e-12;
 
 // q_i = atan2(C_i - A_i) + s_i acos((l1^2 + d^2 - l2^2) / (2 l1 d)), d = |C_i - A_i|.

@@ -12,26 +12,27 @@ namespace dualv::model {
 // d_k squared, so `d_k > 0` is Eigen::LLT's positive-definiteness test.
 class Ldlt3 {
  public:
-  // False when a pivot is not above `relative_tolerance` times M's largest diagonal entry:
-  // M is not positive definite, or (tolerance > 0) numerically singular. For SPD M every
-  // pivot lies in [lambda_min, max diagonal], so a vanishing pivot means a vanishing
-  // eigenvalue: the cheap stand-in for a reciprocal condition number.
+  // False when M is not positive definite (a pivot <= 0), or, with a tolerance > 0, when it
+  // is numerically singular: det M = d0 d1 d2 below tolerance * (largest diagonal entry)^3.
+  // The largest diagonal entry lies in [lambda_max / 3, lambda_max], so that refuses every M
+  // whose condition number exceeds 27 / tolerance: the cheap stand-in for a reciprocal
+  // condition number.
   bool factor(const Eigen::Matrix3d& M, double relative_tolerance = 0.0) noexcept {
-    const double floor = relative_tolerance * std::max({M(0, 0), M(1, 1), M(2, 2), 0.0});
     d0_ = M(0, 0);
-    if (!(d0_ > floor)) return false;
+    if (!(d0_ > 0.0)) return false;
     i0_ = 1.0 / d0_;
     l10_ = M(0, 1) * i0_;
     l20_ = M(0, 2) * i0_;
     d1_ = M(1, 1) - l10_ * M(0, 1);
-    if (!(d1_ > floor)) return false;
+    if (!(d1_ > 0.0)) return false;
     i1_ = 1.0 / d1_;
     const double m21 = M(1, 2) - l20_ * M(0, 1);
     l21_ = m21 * i1_;
     d2_ = M(2, 2) - l20_ * M(0, 2) - l21_ * m21;
-    if (!(d2_ > floor)) return false;
+    if (!(d2_ > 0.0)) return false;
     i2_ = 1.0 / d2_;
-    return true;
+    const double largest = std::max({M(0, 0), M(1, 1), M(2, 2)});
+    return !(d0_ * d1_ * d2_ <= relative_tolerance * largest * largest * largest);
   }
 
   // After a successful factor().
@@ -65,12 +66,27 @@ class Ldlt3 {
   double d0_ = 0, d1_ = 0, d2_ = 0, i0_ = 0, i1_ = 0, i2_ = 0, l10_ = 0, l20_ = 0, l21_ = 0;
 };
 
-// Solves M x = b; false when M is not positive definite.
+// Solves M x = b; false when M is not positive definite (Sylvester: the leading minors
+// M00, M00 M11 - M01^2 and det M are positive). By the adjugate, with a single division: the
+// plant's RK4 stages depend on each other, so the latency of this solve (not its throughput)
+// bounds the simulation speed, and LDL^T puts three divisions one after the other. For the
+// mass matrix (condition number ~1e2) the result agrees with LDL^T to ~1e-14 (tests).
 inline bool solve_spd3(const Eigen::Matrix3d& M, const Eigen::Vector3d& b,
                        Eigen::Vector3d& x) noexcept {
-  Ldlt3 ldlt;
-  if (!ldlt.factor(M)) return false;
-  ldlt.solve(b, x);
+  const double m00 = M(0, 0), m01 = M(0, 1), m02 = M(0, 2);
+  const double m11 = M(1, 1), m12 = M(1, 2), m22 = M(2, 2);
+  const double c00 = m11 * m22 - m12 * m12;  // cofactors (symmetric)
+  const double c01 = m02 * m12 - m01 * m22;
+  const double c02 = m01 * m12 - m02 * m11;
+  const double c11 = m00 * m22 - m02 * m02;
+  const double c12 = m01 * m02 - m00 * m12;
+  const double c22 = m00 * m11 - m01 * m01;
+  const double det = m00 * c00 + m01 * c01 + m02 * c02;
+  if (!(m00 > 0.0 && c22 > 0.0 && det > 0.0)) return false;
+  const double inv = 1.0 / det;
+  x[0] = (c00 * b[0] + c01 * b[1] + c02 * b[2]) * inv;
+  x[1] = (c01 * b[0] + c11 * b[1] + c12 * b[2]) * inv;
+  x[2] = (c02 * b[0] + c12 * b[1] + c22 * b[2]) * inv;
   return true;
 }
 
