@@ -9,6 +9,7 @@
 #   - SIGTERM ends the process cleanly with status 0
 # Usage: dualv_sim_hil.sh DUALV_BINARY CONFIG_YAML
 set -u
+. "$(dirname "$0")/hil_lib.sh"
 dualv=${1:?usage: dualv_sim_hil.sh DUALV_BINARY CONFIG_YAML}
 config=${2:?usage: dualv_sim_hil.sh DUALV_BINARY CONFIG_YAML}
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/dualv-sim-hil.XXXXXX") || exit 1
@@ -25,14 +26,6 @@ fail() {
   echo "--- dualv sim output"; cat "$tmp/sim.log"
   echo "--- candump"; cat "$tmp/dump.log"
   exit 1
-}
-wait_for() {  # wait_for FILE PATTERN SECONDS
-  local n=$(( $3 * 20 ))
-  for ((i = 0; i < n; ++i)); do
-    grep -q -- "$2" "$1" 2>/dev/null && return 0
-    sleep 0.05
-  done
-  return 1
 }
 
 candump -L vcan0 >"$tmp/dump.log" 2>&1 &

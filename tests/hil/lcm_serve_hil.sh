@@ -5,6 +5,7 @@
 # start again, and a reset never starts anything by itself.
 # Usage: lcm_serve_hil.sh DUALV_BINARY CONFIG_YAML
 set -u
+. "$(dirname "$0")/hil_lib.sh"
 dualv=${1:?usage: lcm_serve_hil.sh DUALV_BINARY CONFIG_YAML}
 config=${2:?usage: lcm_serve_hil.sh DUALV_BINARY CONFIG_YAML}
 if [[ "${DUALV_HIL:-}" != uml && "${DUALV_HIL:-}" != netns ]]; then
@@ -25,30 +26,23 @@ program=$(dirname "$config")/paper.yaml
 "$dualv" run -c "$tmp/dualv.yaml" --serve --lcm "$url" --keys "$tmp/keys" --out "$tmp/out" \
   >"$tmp/run.log" 2>&1 &
 pid=$!
-log_has() {  # log_has PATTERN SECONDS
-  for ((i = 0; i < $2 * 20; ++i)); do
-    grep -q -- "$1" "$tmp/run.log" && return 0
-    sleep 0.05
-  done
-  return 1
-}
 fail() {
   echo "FAIL: $*"
   cat "$tmp/run.log"
   exit 1
 }
-log_has "serving: waiting" 20 || fail "no service"
+wait_for "$tmp/run.log" "serving: waiting" 20 || fail "no service"
 "$dualv" start "$program" --key "$tmp/other/intruder.key" --lcm "$url" >/dev/null
-log_has "refused (unknown key)" 10 || fail "a start with an unknown key was not refused"
+wait_for "$tmp/run.log" "refused (unknown key)" 10 || fail "a start with an unknown key was not refused"
 grep -q "starting " "$tmp/run.log" && fail "a start with an unknown key ran"
 "$dualv" start "$program" --key "$tmp/keys/lab1.key" --lcm "$url" >/dev/null
-log_has "paper.yaml done" 60 || fail "the signed start did not run the program"
+wait_for "$tmp/run.log" "paper.yaml done" 60 || fail "the signed start did not run the program"
 "$dualv" estop --lcm "$url" >/dev/null
-log_has "a reset is needed" 10 || fail "e-stop while idle not latched"
+wait_for "$tmp/run.log" "a reset is needed" 10 || fail "e-stop while idle not latched"
 "$dualv" start "$program" --key "$tmp/keys/lab1.key" --lcm "$url" >/dev/null
-log_has "refused: the last stop has not been reset" 10 || fail "start accepted without a reset"
+wait_for "$tmp/run.log" "refused: the last stop has not been reset" 10 || fail "start accepted without a reset"
 "$dualv" reset --key "$tmp/keys/lab1.key" --lcm "$url" >/dev/null
-log_has "reset (key lab1)" 10 || fail "signed reset not accepted"
+wait_for "$tmp/run.log" "reset (key lab1)" 10 || fail "signed reset not accepted"
 sleep 1
 [[ $(grep -c "^dualv run: starting " "$tmp/run.log") -eq 1 ]] || fail "a reset started motion"
 echo "PASS: signed start runs; unknown key refused; e-stop needs a reset; reset starts nothing"

@@ -6,6 +6,7 @@
 # fault log, and a start is then refused until a signed reset.
 # Usage: lcm_stream_hil.sh DUALV_BINARY CONFIG_YAML
 set -u
+. "$(dirname "$0")/hil_lib.sh"
 dualv=${1:?usage: lcm_stream_hil.sh DUALV_BINARY CONFIG_YAML}
 config=${2:?usage: lcm_stream_hil.sh DUALV_BINARY CONFIG_YAML}
 if [[ "${DUALV_HIL:-}" != uml && "${DUALV_HIL:-}" != netns ]]; then
@@ -28,25 +29,18 @@ grep -q "command_stream_timeout: 0.5" "$tmp/dualv.yaml" || { echo "FAIL: config 
 "$dualv" run -c "$tmp/dualv.yaml" --serve --lcm "$url" --keys "$tmp/keys" --out "$tmp/out" \
   >"$tmp/run.log" 2>&1 &
 pid=$!
-log_has() {  # log_has PATTERN SECONDS
-  for ((i = 0; i < $2 * 20; ++i)); do
-    grep -q -- "$1" "$tmp/run.log" && return 0
-    sleep 0.05
-  done
-  return 1
-}
 fail() {
   echo "FAIL: $*"
   cat "$tmp/run.log"
   [[ -f "$tmp/out/faults.jsonl" ]] && cat "$tmp/out/faults.jsonl"
   exit 1
 }
-log_has "serving: waiting" 20 || fail "no service"
+wait_for "$tmp/run.log" "serving: waiting" 20 || fail "no service"
 
 # 1. A complete stream: start, 2 s of a 10 mm circle, signed stop: done, no fault.
 "$dualv" stream --key "$tmp/keys/lab1.key" --lcm "$url" --circle 0.01 --rate 100 \
   --duration 2 >"$tmp/stream1.log" 2>&1 || fail "dualv stream failed: $(cat "$tmp/stream1.log")"
-log_has "stream done" 20 || fail "a stream ended by its stop did not end normally"
+wait_for "$tmp/run.log" "stream done" 20 || fail "a stream ended by its stop did not end normally"
 # (deadline misses are logged as warnings in the guest: only a stop counts)
 grep '"event":"fault"' "$tmp/out/faults.jsonl" 2>/dev/null | grep -qE '"reaction":"(SS1|STO)"' &&
   fail "a normal stream logged a stopping fault"
@@ -67,7 +61,7 @@ grep -q "stream STOPPED" "$tmp/run.log" && fail "the stream stopped while it was
 kill -KILL "$streamer"
 wait "$streamer" 2>/dev/null
 streamer=
-log_has "stream STOPPED" 20 || fail "killing the streamer did not stop the run"
+wait_for "$tmp/run.log" "stream STOPPED" 20 || fail "killing the streamer did not stop the run"
 grep "stream STOPPED" "$tmp/run.log" | grep -q "command stream stale" ||
   fail "the stop's cause is not 'command stream stale'"
 grep '"event":"fault"' "$tmp/out/faults.jsonl" | grep '"cause":"command stream stale"' |
@@ -76,5 +70,5 @@ grep '"event":"fault"' "$tmp/out/faults.jsonl" | grep '"cause":"command stream s
 # 3. After that stop only a signed reset re-enables starts.
 "$dualv" stream --key "$tmp/keys/lab1.key" --lcm "$url" --circle 0.01 --duration 0.5 \
   >/dev/null 2>&1
-log_has "refused: the last stop has not been reset" 10 || fail "a stream started without a reset"
+wait_for "$tmp/run.log" "refused: the last stop has not been reset" 10 || fail "a stream started without a reset"
 echo "PASS: stream followed and stopped normally; killed streamer -> SS1 (command stream stale); reset needed"

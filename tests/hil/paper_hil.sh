@@ -31,6 +31,7 @@
 # Usage: paper_hil.sh DUALV_BINARY CONFIG_YAML [PROGRAM_YAML (default: paper.yaml beside it)]
 # KEEP=1 keeps the work folder (logs, captures, configuration) and prints its path.
 set -u
+. "$(dirname "$0")/hil_lib.sh"
 usage="usage: paper_hil.sh DUALV_BINARY CONFIG_YAML [PROGRAM_YAML]"
 dualv=${1:?$usage}
 config_in=${2:?$usage}
@@ -57,14 +58,6 @@ fail() {
 }
 show() {  # show FILE...: the tail of logs after a failure
   for f in "$@"; do echo "--- $f (tail)"; tail -n 40 "$f" 2>/dev/null; done
-}
-wait_for() {  # wait_for FILE EXTENDED_REGEX SECONDS
-  local n=$(($3 * 20))
-  for ((i = 0; i < n; ++i)); do
-    grep -Eq -- "$2" "$1" 2>/dev/null && return 0
-    sleep 0.05
-  done
-  return 1
 }
 
 # SCHED_FIFO where permitted (root in the guest, netns): the emulator above the controller.
@@ -172,7 +165,7 @@ start_bus foreign
 stdbuf -oL "$dualv" run --can vcan0 --config "$config" -p "$program" --variant retimed \
   --no-plots -o "$tmp/foreign" >"$tmp/foreign.run.log" 2>&1 &
 run_pid=$!
-if ! wait_for "$tmp/foreign.run.log" "t = +0\.00 /" 30; then
+if ! wait_for "$tmp/foreign.run.log" "t = *0\.00 /" 30; then
   fail "foreign: the program did not start"
   show "$tmp/foreign.run.log"
 fi

@@ -30,6 +30,7 @@
 # Usage: safety_hil.sh DUALV_BINARY CONFIG_YAML [--gateway CAN_FAULT_GATEWAY] [CASE...]
 # (default cases: 1-5; with --gateway: 6-11). KEEP=1 keeps the work folder.
 set -u
+. "$(dirname "$0")/hil_lib.sh"
 usage="usage: safety_hil.sh DUALV_BINARY CONFIG_YAML [--gateway CAN_FAULT_GATEWAY] [CASE...]"
 dualv=${1:?$usage}
 config_in=${2:?$usage}
@@ -67,14 +68,6 @@ fail() {  # the logs of the case running now (its name is in $tmp/current)
   name=$(cat "$tmp/current" 2>/dev/null)
   for f in "$tmp/$name".*.log; do echo "--- $f (tail)"; tail -n 30 "$f"; done
   failed=1
-}
-wait_for() {  # wait_for FILE PATTERN SECONDS
-  local n=$(( $3 * 20 ))
-  for ((i = 0; i < n; ++i)); do
-    grep -q -- "$2" "$1" 2>/dev/null && return 0
-    sleep 0.05
-  done
-  return 1
 }
 
 # The guest's timing is coarse (ms-scale late wake-ups, bursts of late frames): widen the
