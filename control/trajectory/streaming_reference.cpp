@@ -28,10 +28,6 @@ namespace {
 
 using Matrix5 = Eigen::Matrix<double, 5, 5>;
 
-bool finite(const Pose& p) noexcept {
-  return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
-}
-
 }  // namespace
 
 StreamingReference::StreamingReference(const model::Model& model, const StreamingLimits& limits,
@@ -80,7 +76,7 @@ TargetStatus StreamingReference::set_target(const Pose& target) noexcept {
   TargetStatus s = TargetStatus::kAccepted;
   if (!active_)
     s = TargetStatus::kNotActive;
-  else if (!finite(target))
+  else if (!target.allFinite())
     s = TargetStatus::kNonFinite;
   else if (!workspace_.x.contains(target[0]) || !workspace_.y.contains(target[1]) ||
            !workspace_.theta.contains(target[2]))

@@ -176,12 +176,14 @@ std::vector<std::uint8_t> CanopenMaster::read_bytes(std::uint8_t node, std::uint
   return buffer;
 }
 
-void CanopenMaster::wait_boot_up(std::span<const std::uint8_t> nodes, std::uint64_t timeout_ns) {
+std::vector<std::uint8_t> CanopenMaster::wait_for_nodes(
+    std::span<const std::uint8_t> nodes, std::uint64_t timeout_ns,
+    const std::function<bool(std::uint8_t)>& done) {
   const std::uint64_t deadline = clock_.now_ns() + timeout_ns;
   auto missing = [&] {
     std::vector<std::uint8_t> m;
     for (std::uint8_t n : nodes)
-      if (!booted_.at(n)) m.push_back(n);
+      if (!done(n)) m.push_back(n);
     return m;
   };
   pump();
@@ -189,7 +191,12 @@ void CanopenMaster::wait_boot_up(std::span<const std::uint8_t> nodes, std::uint6
     waiter_.wait_until(deadline);
     pump();
   }
-  const std::vector<std::uint8_t> m = missing();
+  return missing();
+}
+
+void CanopenMaster::wait_boot_up(std::span<const std::uint8_t> nodes, std::uint64_t timeout_ns) {
+  const std::vector<std::uint8_t> m =
+      wait_for_nodes(nodes, timeout_ns, [&](std::uint8_t n) { return booted_.at(n); });
   if (!m.empty())
     throw BootTimeoutError(
         fmt::format("node{} {} did not boot within {} s (no boot-up message 700h + id after NMT "
@@ -200,19 +207,9 @@ void CanopenMaster::wait_boot_up(std::span<const std::uint8_t> nodes, std::uint6
 
 void CanopenMaster::wait_state(std::span<const std::uint8_t> nodes, fw::NmtState state,
                                std::uint64_t timeout_ns) {
-  const std::uint64_t deadline = clock_.now_ns() + timeout_ns;
-  auto missing = [&] {
-    std::vector<std::uint8_t> m;
-    for (std::uint8_t n : nodes)
-      if (!heartbeats_.at(n).seen() || heartbeats_.at(n).state() != state) m.push_back(n);
-    return m;
-  };
-  pump();
-  while (!missing().empty() && clock_.now_ns() < deadline) {
-    waiter_.wait_until(deadline);
-    pump();
-  }
-  const std::vector<std::uint8_t> m = missing();
+  const std::vector<std::uint8_t> m = wait_for_nodes(nodes, timeout_ns, [&](std::uint8_t n) {
+    return heartbeats_.at(n).seen() && heartbeats_.at(n).state() == state;
+  });
   if (!m.empty()) {
     std::string detail;
     for (std::uint8_t n : m)

@@ -9,6 +9,7 @@
 //    06090030h invalid value for parameter (download only)").
 // Every wait is bounded by the clock (Clock) and done through a Waiter; nothing sleeps.
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -110,6 +111,11 @@ class CanopenMaster {
  private:
   void dispatch(const fw::CanFrame& frame);
   void pump();  // heartbeat producer + drain the receive queue
+  // Set-up: pumps the bus until done(n) holds for every node or timeout_ns passes; returns
+  // the nodes still not done.
+  std::vector<std::uint8_t> wait_for_nodes(std::span<const std::uint8_t> nodes,
+                                           std::uint64_t timeout_ns,
+                                           const std::function<bool(std::uint8_t)>& done);
   void run_sdo(SdoClient& client, const std::string& what);
 
   CanBus& bus_;

@@ -9,12 +9,12 @@
 #include <memory>
 #include <vector>
 
-#include "apps/experiment/robot_config.hpp"
 #include "control/loop/control_cycle.hpp"
 #include "control/trajectory/program.hpp"
 #include "drivers/canopen_config.hpp"
 #include "drivers/canopen_setup.hpp"
 #include "firmware_if/firmware_if.hpp"
+#include "paper_fixture.hpp"
 #include "safety/fault_injector.hpp"
 #include "sim/in_process_can_rig.hpp"
 
@@ -22,21 +22,6 @@ namespace dualv::safety::test {
 namespace {
 
 using drivers::DriveRequest;
-
-const std::string kConfig = std::string(DUALV_SOURCE_DIR) + "/config/dualv.yaml";
-
-const apps::RobotConfig& robot() {
-  static const apps::RobotConfig cfg = apps::load_robot_config(kConfig);
-  return cfg;
-}
-const trajectory::Program& paper() {
-  static const trajectory::Program p = [] {
-    trajectory::ProgramContext ctx;
-    ctx.start = ctx.home = robot().model.home;
-    return trajectory::load_program_file(std::string(DUALV_SOURCE_DIR) + "/config/paper.yaml", ctx);
-  }();
-  return p;
-}
 
 class RigClock final : public drivers::canopen::Clock {
  public:
@@ -73,7 +58,7 @@ struct WireStats {
 
 struct CanRig {
   CanRig()
-      : can(drivers::load_can_config_file(kConfig)),
+      : can(drivers::load_can_config_file(robot().path)),
         rig(robot().model, robot().plant, can),
         clock(rig),
         waiter(rig),

@@ -9,9 +9,9 @@
 #include <memory>
 #include <vector>
 
-#include "apps/experiment/robot_config.hpp"
 #include "control/loop/control_cycle.hpp"
 #include "control/trajectory/program.hpp"
+#include "paper_fixture.hpp"
 #include "safety/fault_injector.hpp"
 #include "sim/plant.hpp"
 #include "sim/sim_actuator_set.hpp"
@@ -22,20 +22,6 @@ namespace {
 using control::CyclePhase;
 using control::CycleStatus;
 using drivers::DriveRequest;
-
-const apps::RobotConfig& robot() {
-  static const apps::RobotConfig cfg =
-      apps::load_robot_config(std::string(DUALV_SOURCE_DIR) + "/config/dualv.yaml");
-  return cfg;
-}
-const trajectory::Program& paper() {
-  static const trajectory::Program p = [] {
-    trajectory::ProgramContext ctx;
-    ctx.start = ctx.home = robot().model.home;
-    return trajectory::load_program_file(std::string(DUALV_SOURCE_DIR) + "/config/paper.yaml", ctx);
-  }();
-  return p;
-}
 
 struct Rig {
   explicit Rig(const SafetyConfig& safety = robot().safety)
