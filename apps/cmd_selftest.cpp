@@ -228,8 +228,14 @@ std::vector<Scenario> scenarios(const RobotConfig& cfg) {
        [](Run& r, int) { r.hook_nan_ = true; }},
       {"deadline misses", Reaction::kSto, Fault::kDeadlineMisses, false,
        [misses](Run& r, int k) { r.forced_misses_ = std::min(k + 1, misses); }},
-      {"controller torque step", Reaction::kSs1, Fault::kTorqueRate, false,
-       [](Run& r, int k) { r.hook_step_ = k == 0; }},
+      // The rate limit at the lowest value the configuration allows (so the step stays far
+      // below the absolute limit whatever the configured rate), then one controller step of
+      // three times it.
+      {"limit test: torque rate", Reaction::kSs1, Fault::kTorqueRate, false,
+       [](Run& r, int k) {
+         if (k == 0) r.test_limit([](safety::SafetyConfig& c) { c.torque.max_rate = 100.0; });
+         r.hook_step_ = k == 0;
+       }},
       // Limit tests, as on a machine being commissioned: one limit at a time is set below
       // what the motion in progress does, and the monitor must trip and stop the robot.
       {"limit test: joint velocity", Reaction::kSs1, Fault::kJointVelocity, false,

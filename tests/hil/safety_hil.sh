@@ -8,8 +8,9 @@
 #   2. hardwired e-stop button (60FDh)              -> STO
 #   3. SIGINT to the controller (signal e-stop)     -> SS1, then torque off
 #   4. the drives vanish (emulator SIGSTOPped)      -> STO (stale feedback / drive lost)
-#   5. host-injected faults (encoder jump, 10x torque, NaN) and the limit tests (joint and
-#      plate velocity, workspace, singularity distance, tracking error): the selftest table
+#   5. host-injected faults (encoder jump, 10x torque, NaN, deadline misses) and the limit
+#      tests (torque rate, joint and plate velocity, workspace, singularity distance,
+#      tracking error): the selftest table
 # With --gateway (ctest hil_safety_frames, vcan0 + vcan1) the frame faults, through
 # can_fault_gateway.cpp between the controller (vcan0) and the emulator (vcan1), which
 # forwards every frame and breaks the frames of one COB-ID as told:
@@ -233,10 +234,10 @@ case_drives_gone() {  # 4. The drives vanish (the emulator process stops answeri
   check_wire drives_gone torque-off-at-end
 }
 case_host_faults() {  # 5. Host-injected faults and limit tests, as commissioning runs them.
-  # Not "controller torque step": this overlay's torque rate limit is far above torque.max.
-  run_case host_faults -- --only "encoder jump" "10x" "NaN" "limit test" --inject-at 3.0
+  run_case host_faults -- --only "encoder jump" "10x" "NaN" "deadline misses" "limit test" \
+    --inject-at 3.0
   finish_case host_faults 0
-  [[ $(grep -c "limit test: .* PASS" "$tmp/host_faults.ctl.log") -eq 5 ]] ||
+  [[ $(grep -c "limit test: .* PASS" "$tmp/host_faults.ctl.log") -eq 6 ]] ||
     fail "host_faults: not every limit test ran and passed"
   check_wire host_faults limit-only
 }
