@@ -159,6 +159,8 @@ const char* to_string(PlantStatus s) noexcept {
 Plant::Plant(const model::Model& configured, const PlantConfig& config)
     : true_model_(make_true_model(configured, config)), config_(config), data_(true_model_) {
   const int n = true_model_.n;
+  if (n >= 3 && n <= model::kMaxChains && model::LaneDynamics::supports(true_model_))
+    lanes_.emplace(true_model_);
   for (auto& slot : delay_line_) slot = model::JointVector::Zero(n);
   pending_ = model::JointVector::Zero(n);
   target_ = model::JointVector::Zero(n);
@@ -223,21 +225,20 @@ PlantStatus Plant::command(const model::JointVector& tau) noexcept {
   return PlantStatus::kOk;
 }
 
-void Plant::friction(const model::JointVector& q_dot, model::JointVector& f) const noexcept {
+double Plant::joint_friction(double q_dot) const noexcept {
   const auto& fr = config_.friction;
-  if (!fr.enabled) {
-    f.setZero();
-    return;
-  }
-  for (int i = 0; i < true_model_.n; ++i) {
-    const double z = q_dot[i] * inv_smoothing_velocity_;
-    // tanh(z) = 1 - 2 / (exp(2 z) + 1): one exp is several times cheaper than std::tanh
-    // (which goes through expm1) on this hot path; the cancellation near z = 0 costs an
-    // absolute 1e-16, nothing for a friction torque. It rounds to +-1 for |z| > 19.1.
-    const double sign =
-        std::abs(z) > 19.5 ? std::copysign(1.0, z) : 1.0 - 2.0 / (std::exp(2.0 * z) + 1.0);
-    f[i] = fr.coulomb * sign + fr.viscous * q_dot[i];
-  }
+  if (!fr.enabled) return 0.0;
+  const double z = q_dot * inv_smoothing_velocity_;
+  // tanh(z) = 1 - 2 / (exp(2 z) + 1): one exp is several times cheaper than std::tanh
+  // (which goes through expm1) on this hot path; the cancellation near z = 0 costs an
+  // absolute 1e-16, nothing for a friction torque. It rounds to +-1 for |z| > 19.1.
+  const double sign =
+      std::abs(z) > 19.5 ? std::copysign(1.0, z) : 1.0 - 2.0 / (std::exp(2.0 * z) + 1.0);
+  return fr.coulomb * sign + fr.viscous * q_dot;
+}
+
+void Plant::friction(const model::JointVector& q_dot, model::JointVector& f) const noexcept {
+  for (int i = 0; i < true_model_.n; ++i) f[i] = joint_friction(q_dot[i]);
 }
 
 model::Status Plant::acceleration(const model::Pose& X, const model::Twist& X_dot,
@@ -247,14 +248,33 @@ model::Status Plant::acceleration(const model::Pose& X, const model::Twist& X_do
   // joint friction subtracted from the motor torques. Friction needs q_dot = Jm X_dot,
   // which update_dynamics computes on the way, so the solve is written out here instead
   // of calling forward_dynamics after a second kinematics pass (tests check both agree).
-  if (tau_motor.size() != true_model_.n) return model::Status::kInvalidInput;
-  const model::Status s = model::update_dynamics(true_model_, data_, X, X_dot);
-  if (s != model::Status::kOk) return s;
-  friction(data_.q_dot, friction_);
-  model::Twist F = -data_.h - data_.g;
-  for (int i = 0; i < true_model_.n; ++i)
-    F += (tau_motor[i] - friction_[i]) * data_.Jm.row(i).transpose();  // F_X = Jm^T tau
-  if (!model::solve_spd3(data_.M, F, X_dd)) return model::Status::kParallelSingular;
+  const int n = true_model_.n;
+  if (tau_motor.size() != n) return model::Status::kInvalidInput;
+  model::Twist F;
+  const model::Mat3* M = nullptr;
+  if (lanes_) {
+    const model::Status s = lanes_->update(X, X_dot, lane_out_);
+    if (s != model::Status::kOk) return s;
+    const auto& o = lane_out_;
+    for (int i = 0; i < n; ++i) friction_[i] = joint_friction(o.q_dot[i]);
+    F = -o.bias;
+    for (int i = 0; i < n; ++i) {
+      const double t = tau_motor[i] - friction_[i];  // F_X = Jm^T tau
+      F[0] += o.jm0[i] * t;
+      F[1] += o.jm1[i] * t;
+      F[2] += o.jm2[i] * t;
+    }
+    M = &o.M;
+  } else {
+    const model::Status s = model::update_dynamics(true_model_, data_, X, X_dot);
+    if (s != model::Status::kOk) return s;
+    friction(data_.q_dot, friction_);
+    F = -data_.h - data_.g;
+    for (int i = 0; i < n; ++i)
+      F += (tau_motor[i] - friction_[i]) * data_.Jm.row(i).transpose();  // F_X = Jm^T tau
+    M = &data_.M;
+  }
+  if (!model::solve_spd3(*M, F, X_dd)) return model::Status::kParallelSingular;
   if (!X_dd.allFinite()) return model::Status::kInvalidInput;
   return model::Status::kOk;
 }

@@ -22,8 +22,10 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 
+#include "control/model/lane_dynamics.hpp"
 #include "control/model/model.hpp"
 
 namespace dualv::sim {
@@ -177,7 +179,8 @@ class Plant {
   };
   // Drive-side processing of a command: quantisation and saturation [N m].
   double drive_target(double tau) const noexcept;
-  // Joint friction torque (opposes motion) for joint velocities q_dot [N m].
+  // Joint friction torque (opposes motion) for a joint velocity [N m], and for all joints.
+  double joint_friction(double q_dot) const noexcept;
   void friction(const model::JointVector& q_dot, model::JointVector& f) const noexcept;
   // dy/dt at y, with the motor torque exp(-s / T) = `decay` of the way into the step.
   model::Status derivative(const State& y, double decay, State& dy) noexcept;
@@ -186,6 +189,10 @@ class Plant {
   model::Model true_model_;
   PlantConfig config_;
   model::Data data_;
+  // The right-hand side with the chains in SIMD lanes when the model allows it (couplers'
+  // centres of mass on their axes), else update_dynamics.
+  std::optional<model::LaneDynamics> lanes_;
+  model::LaneDynamics::Output lane_out_;
   State y_{};
   PlantStatus latched_ = PlantStatus::kOk;
   // Delay line of drive targets (ring of D + 1 slots, D = delay cycles; head_ = next write).

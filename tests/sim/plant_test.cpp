@@ -60,6 +60,21 @@ TEST(Plant, AccelerationIsTheModelsForwardDynamicsWithoutFriction) {
   EXPECT_GT(a_model.norm(), 1.0);
 }
 
+TEST(Plant, AccelerationIsTheModelsForwardDynamicsForCouplersOffTheirAxes) {
+  // Off-axis couplers take update_dynamics' general body form instead of the lanes.
+  model::Model m = dual_v();
+  for (int i = 0; i < m.n; ++i) m.chains[i].coupler.com = model::Vec2(0.14, 0.01 * (i + 1));
+  Plant p(m, PlantConfig::ideal());
+  model::Data d(m);
+  const Pose X = m.home + Pose(0.02, -0.01, 0.1);
+  const Twist Xd(0.1, -0.2, 0.5);
+  const JointVector tau = joints(3.0, -1.0, 2.0, 0.5);
+  Twist a_plant, a_model;
+  ASSERT_EQ(p.acceleration(X, Xd, tau, a_plant), model::Status::kOk);
+  ASSERT_EQ(model::forward_dynamics(m, d, X, Xd, tau, a_model), model::Status::kOk);
+  EXPECT_LT((a_plant - a_model).norm(), 1e-12 * a_model.norm());
+}
+
 TEST(Plant, ZeroTorqueWithoutFrictionConservesEnergy) {
   Plant p(dual_v(), PlantConfig::ideal());
   ASSERT_EQ(p.reset(dual_v().home, Twist(0.05, -0.04, 0.3)), PlantStatus::kOk);
