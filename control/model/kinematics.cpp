@@ -3,7 +3,6 @@
 #include <Eigen/Eigenvalues>
 #include <cmath>
 
-#include "control/model/chain_kinematics.hpp"
 #include "control/model/planar.hpp"
 #include "control/model/solve_spd3.hpp"
 
@@ -25,14 +24,34 @@ double pseudo_angle(const Vec2& v) noexcept {
 // Chain positions at X: plate anchors, cranks, elbows, couplers (no joint angles: no atan2).
 Status chain_geometry(const Model& model, Data& data, const Pose& X) noexcept {
   if (!finite(X) || model.n < 3 || model.n > kMaxChains) return Status::kInvalidInput;
+  const Vec2 p = X.head<2>();
   // One sine/cosine of theta for all chains (speed: this runs 4 times per RK4 step).
   const double c = std::cos(X.z()), s = std::sin(X.z());
   data.rotation = Vec2(c, s);
-  const detail::PlateFrame f{X.x(), X.y(), c, s};
-  for (int i = 0; i < model.n; ++i)
-    if (const Status st = detail::chain_position(model.chains[i], f, data.chain[i]);
-        st != Status::kOk)
-      return st;
+  for (int i = 0; i < model.n; ++i) {
+    const Chain& ch = model.chains[i];
+    ChainState& cs = data.chain[i];
+    const Vec2& pa = ch.plate_anchor;
+    cs.r = Vec2(c * pa.x() - s * pa.y(), s * pa.x() + c * pa.y());
+    cs.anchor = p + cs.r;
+    const Vec2 d = cs.anchor - ch.base;
+    const double dd = d.squaredNorm();
+    const double l1 = ch.crank_length, l2 = ch.coupler_length;
+    if (!(dd > 0.0)) return Status::kUnreachable;
+    // q_i = atan2(d) + s_i gamma, gamma = acos((l1^2 + |d|^2 - l2^2) / (2 l1 |d|)) in [0, pi]
+    // (DESIGN.md). The crank is d rotated by s_i gamma and scaled to l1; as the intersection
+    // of the two circles: a = k d + s_i m E d with k = l1 cos(gamma) / |d|
+    // = (l1^2 + |d|^2 - l2^2) / (2 |d|^2) and m = l1 sin(gamma) / |d| = sqrt(l1^2 / |d|^2 - k^2):
+    // one division and one square root (|d| itself is never needed).
+    const double inv_dd = 1.0 / dd;
+    const double k = (l1 * l1 + dd - l2 * l2) * 0.5 * inv_dd;
+    const double m2 = l1 * l1 * inv_dd - k * k;  // >= 0 iff |cos(gamma)| <= 1
+    if (!(m2 >= 0.0)) return Status::kUnreachable;
+    const double m = ch.working_mode * std::sqrt(m2);
+    cs.crank = k * d + m * perp(d);
+    cs.elbow = ch.base + cs.crank;
+    cs.coupler = cs.anchor - cs.elbow;
+  }
   return Status::kOk;
 }
 
@@ -71,19 +90,37 @@ Status jacobian(const Model& model, Data& data, const Twist& X_dot) noexcept {
   }
   if constexpr (P == Parts::kAll) data.Jm_dot.resize(model.n, 3);
   for (int i = 0; i < model.n; ++i) {
-    detail::ChainVelocity v;
-    if (const Status st = detail::chain_velocity(model.chains[i], data.chain[i], X_dot.x(),
-                                                 X_dot.y(), X_dot.z(), v);
-        st != Status::kOk)
-      return st;
-    data.Jm.row(i) << v.j0, v.j1, v.j2;
+    const ChainState& cs = data.chain[i];
+    const Vec2& a = cs.crank;
+    const Vec2& u = cs.coupler;
+    const Vec2& r = cs.r;
+    // Closure |C_i - B_i| = l2 differentiated: u . (C_dot - B_dot) = 0 with
+    // C_dot = p_dot + theta_dot E r and B_dot = q_dot E a, so
+    // q_dot = [u^T, r x u] X_dot / (a x u).
+    const double den = cross(a, u);
+    // |a| = l1 and |u| = l2 by construction (IK): no square roots needed.
+    const double l1l2 = model.chains[i].crank_length * model.chains[i].coupler_length;
+    if (!(std::abs(den) >= kSerialSingularTolerance * l1l2)) return Status::kSerialSingular;
+    const Eigen::RowVector3d num(u.x(), u.y(), cross(r, u));
+    const double inv_den = 1.0 / den;
+    const Eigen::RowVector3d row = num * inv_den;
+    data.Jm.row(i) = row;
     if constexpr (P != Parts::kJm) {
-      data.q_dot[i] = v.q_dot;
-      data.qdd_bias[i] = v.qdd_bias;
-    }
-    if constexpr (P == Parts::kAll) {
-      data.Jm_dot.row(i) << (v.num_dot0 - v.j0 * v.den_dot) * v.inv_den,
-          (v.num_dot1 - v.j1 * v.den_dot) * v.inv_den, (v.num_dot2 - v.j2 * v.den_dot) * v.inv_den;
+      const double qd = row.dot(X_dot);
+      data.q_dot[i] = qd;
+      // Time derivative of the row: d(num/den) = (num_dot - row den_dot) / den.
+      const Vec2 r_dot = X_dot.z() * perp(r);
+      const Vec2 a_dot = qd * perp(a);
+      const Vec2 u_dot = X_dot.head<2>() + r_dot - a_dot;
+      const Eigen::RowVector3d num_dot(u_dot.x(), u_dot.y(), cross(r_dot, u) + cross(r, u_dot));
+      const double den_dot = cross(a_dot, u) + cross(a, u_dot);
+      if constexpr (P == Parts::kAll) {
+        const Eigen::RowVector3d row_dot = (num_dot - row * den_dot) * inv_den;
+        data.Jm_dot.row(i) = row_dot;
+        data.qdd_bias[i] = row_dot.dot(X_dot);
+      } else {  // the same, without the row: (num_dot X_dot - q_dot den_dot) / den
+        data.qdd_bias[i] = (num_dot.dot(X_dot) - qd * den_dot) * inv_den;
+      }
     }
   }
   return Status::kOk;

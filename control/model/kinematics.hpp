@@ -9,6 +9,10 @@ namespace dualv::model {
 // (control/model/solve_spd3.hpp, Ldlt3).
 inline constexpr double kParallelSingularTolerance = 1e-12;
 
+// Below this |sin(crank, coupler)| a chain counts as serially singular (kSerialSingular):
+// Jm's row would divide by ~0.
+inline constexpr double kSerialSingularTolerance = 1e-9;
+
 // q_i = atan2(C_i - A_i) + s_i acos((l1^2 + d^2 - l2^2) / (2 l1 d)), d = |C_i - A_i|.
 // Also fills data.chain[*] (anchors, elbows). q is resized to model.n.
 Status inverse_kinematics(const Model& model, Data& data, const Pose& X, JointVector& q) noexcept;

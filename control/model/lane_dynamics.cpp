@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "control/model/chain_kinematics.hpp"
+#include "control/model/kinematics.hpp"
 
 // Lane vectors pass between functions only inside this file, all inlined into
 // update_avx2 / update_sse2 (always_inline): no call ever crosses the AVX ABI GCC warns about.
@@ -60,8 +60,8 @@ template <int W>
   using V = Lanes<W>;
   const double xd = X_dot.x(), yd = X_dot.y(), thd = X_dot.z();
   const V ax_ = load<W>(ch.anchor_x + first), ay_ = load<W>(ch.anchor_y + first);
-  // Positions (chain_position): C = p + R c_i, d = C - A, the crank a = k d + s m E d as the
-  // intersection of the two circles, the coupler u = d - a.
+  // Positions (chain_geometry in kinematics.cpp): C = p + R c_i, d = C - A, the crank a = k d + s m
+  // E d as the intersection of the two circles, the coupler u = d - a.
   const V rx = c * ax_ - s * ay_, ry = s * ax_ + c * ay_;
   const V dx = X.x() + rx - load<W>(ch.base_x + first);
   const V dy = X.y() + ry - load<W>(ch.base_y + first);
@@ -77,8 +77,8 @@ template <int W>
   m *= load<W>(ch.mode + first);
   const V ax = k * dx - m * dy, ay = k * dy + m * dx;
   const V ux = dx - ax, uy = dy - ay;
-  // Velocity closure (chain_velocity): jm = [u^T, r x u] / (a x u), q_dot = jm X_dot, and
-  // qb = Jm_dot's row times X_dot.
+  // Velocity closure (jacobian in kinematics.cpp): jm = [u^T, r x u] / (a x u), q_dot = jm X_dot,
+  // and qb = Jm_dot's row times X_dot.
   const V den = ax * uy - ay * ux;
   const V limit = load<W>(ch.serial_limit_sq + first);
   for (int l = 0; l < W; ++l)
@@ -210,7 +210,7 @@ LaneDynamics::LaneDynamics(const Model& model, bool allow_avx2) : n_(model.n) {
     chains_.anchor_y[i] = ch.plate_anchor.y();
     chains_.l1_sq[i] = l1 * l1;
     chains_.l1_sq_minus_l2_sq[i] = l1 * l1 - l2 * l2;
-    chains_.serial_limit_sq[i] = std::pow(detail::kSerialEpsilon * l1 * l2, 2);
+    chains_.serial_limit_sq[i] = std::pow(kSerialSingularTolerance * l1 * l2, 2);
     chains_.mode[i] = ch.working_mode;
     chains_.inv_l2_sq[i] = 1.0 / (l2 * l2);
     if (!real) {

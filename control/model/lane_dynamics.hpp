@@ -46,7 +46,7 @@ class LaneDynamics {
     alignas(32) double base_x[kMaxChains], base_y[kMaxChains];            // A_i [m]
     alignas(32) double anchor_x[kMaxChains], anchor_y[kMaxChains];        // c_i, plate frame [m]
     alignas(32) double l1_sq[kMaxChains], l1_sq_minus_l2_sq[kMaxChains];  // [m^2]
-    alignas(32) double serial_limit_sq[kMaxChains];  // (kSerialEpsilon l1 l2)^2 [m^4]
+    alignas(32) double serial_limit_sq[kMaxChains];  // (kSerialSingularTolerance l1 l2)^2 [m^4]
     alignas(32) double mode[kMaxChains];             // working mode s_i = +-1
     alignas(32) double inv_l2_sq[kMaxChains];        // 1 / l2^2 [1/m^2]
     alignas(32) double crank_inertia[kMaxChains];    // I_A: crank + coupler's elbow share
