@@ -8,7 +8,7 @@
 //                 --> [torque quantisation: per mille of rated torque, CiA 402 6071h/6076h]
 //                 --> [saturation at the drive's peak torque, N m]
 //                 --> [current loop: first-order lag, time constant T]  = applied torque
-//   applied torque - joint friction (Coulomb, tanh-smoothed, + viscous) drives the "true"
+//   applied torque - joint friction (Coulomb, smoothed near rest, + viscous) drives the "true"
 //   model, whose masses and inertias differ from the configured (controller's) model by a
 //   set percentage per body class (model mismatch).
 //   Measured joint positions are the true ones rounded to the encoder's resolution.
@@ -48,11 +48,13 @@ struct PlantConfig {
     bool enabled = true;
     double coulomb = 0.2;   // [N m] bearing/seal friction of each direct-drive motor joint
     double viscous = 0.02;  // [N m s/rad]
-    // tanh(q_dot / v_s) replaces sign(q_dot): the Coulomb term reaches 76 % at v_s and
-    // 99.9 % at 4 v_s. A true sign() would make the right-hand side discontinuous and
-    // RK4 lose its order at every velocity reversal; the smooth slope coulomb / v_s
-    // [N m s/rad] must stay well inside RK4's stability region (step * slope / inertia
-    // << 2.8; here 1e-4 * 20 / 0.04 = 0.05).
+    // The Coulomb term is coulomb * s(q_dot / v_s) with the smoothstep
+    // s(z) = z (15 - 10 z^2 + 3 z^4) / 8 for |z| < 1 and sign(z) beyond: full Coulomb
+    // friction from v_s on, twice continuously differentiable everywhere. A true sign()
+    // would make the right-hand side discontinuous and RK4 lose its order at every velocity
+    // reversal; the steepest slope 15/8 coulomb / v_s [N m s/rad] (at rest) must stay well
+    // inside RK4's stability region (step * slope / inertia << 2.8; here
+    // 1e-4 * 37.5 / 0.04 = 0.09). A polynomial, not tanh: no exp on the RK4's hot path.
     double smoothing_velocity = 0.01;  // v_s [rad/s]
   } friction;
 

@@ -186,12 +186,26 @@ TEST(Plant, FrictionFollowsItsLaw) {
   PlantConfig c = PlantConfig::ideal();
   c.friction.enabled = true;
   Plant p(dual_v(), c);
-  ASSERT_EQ(p.reset(dual_v().home, Twist(0.05, 0.0, 0.0)), PlantStatus::kOk);
-  const PlantOutput& o = p.output();
-  for (int i = 0; i < 4; ++i) {
-    const double w = o.q_dot[i];
-    EXPECT_NEAR(o.tau_friction[i], 0.2 * std::tanh(w / 0.01) + 0.02 * w, 1e-12);
+  // The smoothstep of PlantConfig::Friction written out: z (15 - 10 z^2 + 3 z^4) / 8 inside
+  // |z| < 1, full Coulomb outside.
+  auto law = [](double w) {
+    const double z = w / 0.01;
+    const double s = std::abs(z) < 1.0 ? (15 * z - 10 * z * z * z + 3 * std::pow(z, 5)) / 8
+                                       : (z > 0 ? 1.0 : -1.0);
+    return 0.2 * s + 0.02 * w;
+  };
+  int smoothed = 0, saturated = 0;
+  for (const double speed : {0.05, 0.003, 0.0005}) {  // plate speeds [m/s]
+    ASSERT_EQ(p.reset(dual_v().home, Twist(speed, -0.3 * speed, 0.0)), PlantStatus::kOk);
+    const PlantOutput& o = p.output();
+    for (int i = 0; i < 4; ++i) {
+      const double w = o.q_dot[i];
+      EXPECT_NEAR(o.tau_friction[i], law(w), 1e-12) << "q_dot " << w;
+      (std::abs(w) < 0.01 ? smoothed : saturated) += 1;
+    }
   }
+  EXPECT_GE(smoothed, 4);  // both branches of the law were checked
+  EXPECT_GE(saturated, 4);
 }
 
 TEST(Plant, EncoderQuantisesMeasuredPositionsInStepsOfTwoPiOverCounts) {
