@@ -4,6 +4,7 @@
 
 #include "control/model/dynamics.hpp"
 #include "control/model/kinematics.hpp"
+#include "control/model/lane_dynamics.hpp"
 #include "control/model/model_config.hpp"
 
 namespace {
@@ -99,3 +100,19 @@ void BM_UpdateDynamics(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_UpdateDynamics);
+
+// The same quantities with the chains in SIMD lanes (the plant's right-hand side).
+// Argument 0: baseline x86-64 (SSE2); 1: AVX2 where this CPU has it.
+void BM_LaneDynamics(benchmark::State& state) {
+  const Model& m = dual_v();
+  const LaneDynamics lanes(m, state.range(0) != 0);
+  LaneDynamics::Output out;
+  const Pose X = m.home + Pose(0.01, -0.01, 0.05);
+  const Twist Xd(0.1, 0.05, 0.2);
+  for (auto _ : state) {
+    lanes.update(X, Xd, out);
+    benchmark::DoNotOptimize(out.M.data());
+  }
+  state.SetLabel(lanes.uses_avx2() ? "avx2" : "sse2");
+}
+BENCHMARK(BM_LaneDynamics)->Arg(1)->Arg(0);

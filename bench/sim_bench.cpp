@@ -12,6 +12,7 @@
 
 #include "control/controller/controller.hpp"
 #include "control/loop/control_cycle.hpp"
+#include "control/model/lane_dynamics.hpp"
 #include "control/model/model_config.hpp"
 #include "control/trajectory/limits.hpp"
 #include "control/trajectory/program.hpp"
@@ -50,10 +51,13 @@ void run_plant(benchmark::State& state, const sim::PlantConfig& config) {
 // The paper program (config/paper.yaml) as the plant sees it: the torque commands of one
 // closed-loop run at 1 kHz (recorded once, untimed) replayed into a fresh plant with the
 // same configuration, which then moves exactly as in that run.
+// Argument 0: the baseline x86-64 (SSE2) dynamics, as on a CPU without AVX2; 1: AVX2 where
+// this CPU has it.
 void BM_PlantPaperProgram(benchmark::State& state) {
   const std::string dir = std::string(DUALV_SOURCE_DIR) + "/config/";
   const YAML::Node root = YAML::LoadFile(dir + "dualv.yaml");
-  const sim::PlantConfig config = sim::load_plant_config(root["plant"]);
+  sim::PlantConfig config = sim::load_plant_config(root["plant"]);
+  config.allow_avx2 = state.range(0) != 0;
   std::vector<model::JointVector> commands;
   {
     const control::ControlSetup setup = control::load_control_config(root["controller"], 4);
@@ -86,8 +90,9 @@ void BM_PlantPaperProgram(benchmark::State& state) {
   }
   state.counters["robot_s_per_wall_s"] = benchmark::Counter(
       kCycle * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.SetLabel(model::LaneDynamics(dual_v(), config.allow_avx2).uses_avx2() ? "AVX2" : "SSE2");
 }
-BENCHMARK(BM_PlantPaperProgram);
+BENCHMARK(BM_PlantPaperProgram)->Arg(1)->Arg(0);
 
 void BM_PlantCycleAllKnobs(benchmark::State& state) {
   run_plant(state,

@@ -96,6 +96,11 @@ struct PlantConfig {
     int cycles = 1;  // a command given at cycle k is applied from cycle k + cycles
   } transport_delay;
 
+  // Not a YAML key: false keeps the dynamics on the baseline x86-64 (SSE2) code path even on
+  // a CPU with AVX2 (model::LaneDynamics), so benchmarks can show what a target PC without
+  // AVX2 gets.
+  bool allow_avx2 = true;
+
   // Every knob off: the ideal plant (exact configured model, torque applied at once).
   static PlantConfig ideal() noexcept;
 };
