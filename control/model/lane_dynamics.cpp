@@ -8,7 +8,7 @@
 #include "control/model/kinematics.hpp"
 
 // Lane vectors pass between functions only inside this file, all inlined into
-// update_avx2 / update_sse2 (always_inline): no call ever crosses the AVX ABI GCC warns about.
+// update_avx2 / update_baseline (always_inline): no call ever crosses the AVX ABI GCC warns about.
 #pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace dualv::model {
@@ -50,8 +50,8 @@ struct Sums {
   Lanes<W> m00{}, m01{}, m02{}, m11{}, m12{}, m22{}, h0{}, h1{}, h2{}, g0{}, g1{}, g2{};
 };
 
-// update_dynamics' per-chain terms for chains [first, first + W) (paper-independent
-// rigid-body algebra; the comments there derive each line).
+// update_dynamics' per-chain terms for chains [first, first + W) (the comments in
+// kinematics.cpp and dynamics.cpp derive each line).
 template <int W>
 [[gnu::always_inline]] inline Status chain_lanes(const LaneDynamics::Chains& ch, int first, int n,
                                                  const Pose& X, double c, double s,
@@ -163,7 +163,8 @@ template <int W>
 }
 
 // The two builds of the same code: AVX2 + FMA (x86-64-v3: 4 chains per register, fused
-// multiply-adds) and the baseline x86-64 (SSE2: 2 chains per register).
+// multiply-adds) and the baseline (SSE2 on x86-64, NEON on arm64: 2 chains per register).
+#if defined(__x86_64__)
 [[gnu::target("arch=x86-64-v3")]] Status update_avx2(const LaneDynamics::Chains& chains,
                                                      const LaneDynamics::Plate& plate,
                                                      const Vec2& gravity, int n, const Pose& X,
@@ -172,9 +173,17 @@ template <int W>
   return update_lanes<4>(chains, plate, gravity, n, X, X_dot, out);
 }
 
-Status update_sse2(const LaneDynamics::Chains& chains, const LaneDynamics::Plate& plate,
-                   const Vec2& gravity, int n, const Pose& X, const Twist& X_dot,
-                   LaneDynamics::Output& out) noexcept {
+bool cpu_has_avx2() noexcept {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("x86-64-v3");
+}
+#else
+bool cpu_has_avx2() noexcept { return false; }
+#endif
+
+Status update_baseline(const LaneDynamics::Chains& chains, const LaneDynamics::Plate& plate,
+                       const Vec2& gravity, int n, const Pose& X, const Twist& X_dot,
+                       LaneDynamics::Output& out) noexcept {
   return update_lanes<2>(chains, plate, gravity, n, X, X_dot, out);
 }
 
@@ -195,8 +204,7 @@ LaneDynamics::LaneDynamics(const Model& model, bool allow_avx2) : n_(model.n) {
     throw std::invalid_argument(
         "LaneDynamics: a coupler's centre of mass is off its axis (com.y != 0); use "
         "update_dynamics");
-  __builtin_cpu_init();
-  avx2_ = allow_avx2 && __builtin_cpu_supports("x86-64-v3");
+  avx2_ = allow_avx2 && cpu_has_avx2();
   const Body& p = model.plate;
   plate_ = {p.mass, p.mass * p.com.x(), p.mass * p.com.y(),
             p.inertia + p.mass * p.com.squaredNorm()};
@@ -239,8 +247,10 @@ LaneDynamics::LaneDynamics(const Model& model, bool allow_avx2) : n_(model.n) {
 }
 
 Status LaneDynamics::update(const Pose& X, const Twist& X_dot, Output& out) const noexcept {
-  return avx2_ ? update_avx2(chains_, plate_, gravity_, n_, X, X_dot, out)
-               : update_sse2(chains_, plate_, gravity_, n_, X, X_dot, out);
+#if defined(__x86_64__)
+  if (avx2_) return update_avx2(chains_, plate_, gravity_, n_, X, X_dot, out);
+#endif
+  return update_baseline(chains_, plate_, gravity_, n_, X, X_dot, out);
 }
 
 }  // namespace dualv::model
