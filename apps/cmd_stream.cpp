@@ -36,7 +36,7 @@ struct StreamArgs {
   double circle_period = 4.0;
   std::string csv;
   double rate = 100.0;
-  double duration = 10.0;
+  double duration = -1.0;  // not given: 10 s for --circle, the file's length for --csv
   bool start = true;
   bool stop = true;
 };
@@ -81,7 +81,8 @@ int stream(const StreamArgs& a) {
   }
   std::vector<TimedPose> csv;
   if (!a.csv.empty()) csv = load_csv(a.csv);
-  const double duration = !csv.empty() && a.duration <= 0.0 ? csv.back().t : a.duration;
+  // 0: until interrupted.
+  const double duration = a.duration >= 0.0 ? a.duration : !csv.empty() ? csv.back().t : 10.0;
   std::vector<std::string> warnings;
   const runtime::CommandKey key = runtime::load_command_key(a.key_file, &warnings);
   for (const auto& w : warnings) fmt::print(stderr, "dualv stream: warning: {}\n", w);
@@ -114,14 +115,15 @@ int stream(const StreamArgs& a) {
   const auto period = std::chrono::duration<double>(1.0 / a.rate);
   const auto t0 = std::chrono::steady_clock::now();
   std::int64_t sent = 0;
-  for (;; ++sent) {
+  for (bool last = false; !last; ++sent) {
     const auto due = t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                               period * static_cast<double>(sent));
     std::this_thread::sleep_until(due);
     const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (duration > 0.0 && t > duration) break;
+    // The final setpoint is the pose at `duration` itself (a file's last row is always sent).
+    last = duration > 0.0 && t >= duration;
     sequence = std::max(runtime::wall_utime(), sequence + 1);
-    const auto p = pose_at(t);
+    const auto p = pose_at(last ? duration : t);
     runtime::send_setpoint(*lcm, p[0], p[1], p[2], sequence, &key);
   }
   if (a.stop) {
@@ -161,8 +163,8 @@ void register_stream_command(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(1.0, 1000.0));
   cmd->add_option("--duration", args.duration,
-                  "Seconds to stream (0: forever for --circle, the file's length for --csv)")
-      ->capture_default_str()
+                  "Seconds to stream (default: 10 for --circle, the file's length for --csv; 0: "
+                  "until interrupted)")
       ->check(CLI::Range(0.0, 1e6));
   cmd->add_flag("!--no-start", args.start,
                 "Do not send `start stream` first (a stream is already running)");
