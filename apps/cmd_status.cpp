@@ -54,6 +54,7 @@ std::string flag_names(int f) {
   add(M::FLAG_TELEMETRY_DROPPED, "telemetry-dropped");
   add(M::FLAG_PROGRAM_RUNNING, "program-running");
   add(M::FLAG_DRIVES_ENABLED, "drives-enabled");
+  add(M::FLAG_STREAMING, "streaming");
   return s.empty() ? "-" : s;
 }
 
@@ -120,7 +121,13 @@ void print(const Monitor& mon) {
   fmt::print("  plate X_d = ({:+.4f} m, {:+.4f} m, {:+.4f} rad)\n", s.X_d[0], s.X_d[1], s.X_d[2]);
   fmt::print("  tracking error = ({:+.3f} mm, {:+.3f} mm, {:+.3f} mrad)\n",
              s.tracking_error[0] * 1e3, s.tracking_error[1] * 1e3, s.tracking_error[2] * 1e3);
-  if (s.segment >= 0)
+  if ((s.status_flags & dualv_lcm::robot_state_t::FLAG_STREAMING) != 0)
+    fmt::print(
+        "  streaming: target ({:+.4f} m, {:+.4f} m, {:+.4f} rad), last setpoint {:.0f} ms ago, "
+        "{} accepted, {} refused\n",
+        s.stream_target[0], s.stream_target[1], s.stream_target[2], s.stream_age * 1e3,
+        s.stream_accepted, s.stream_refused);
+  else if (s.segment >= 0)
     fmt::print("  program segment {}  lambda = {:.4f}\n", s.segment, s.lambda);
   else
     fmt::print("  no program running\n");

@@ -44,6 +44,10 @@ struct StateSample {
   std::int8_t safety_state = 0;  // dualv_lcm::robot_state_t::SAFETY_*
   char safety_text[24] = {};
   std::int32_t status_flags = 0;  // dualv_lcm::robot_state_t::FLAG_*
+  std::array<double, 3> stream_target{};
+  double stream_age = -1.0;
+  std::int64_t stream_accepted = 0;
+  std::int64_t stream_refused = 0;
 };
 
 // Mirrors dualv_lcm::fault_event_t.

@@ -139,6 +139,10 @@ void TelemetryPublisher::publish_state(const StateSample& s) {
   m.safety_state = s.safety_state;
   m.safety_text = s.safety_text;
   m.status_flags = s.status_flags;
+  for (int i = 0; i < 3; ++i) m.stream_target[i] = s.stream_target[i];
+  m.stream_age = s.stream_age;
+  m.stream_accepted = s.stream_accepted;
+  m.stream_refused = s.stream_refused;
   if (dropped() > 0) m.status_flags |= dualv_lcm::robot_state_t::FLAG_TELEMETRY_DROPPED;
   if (lcm_->publish(kStateChannel, &m) == 0)
     n_states_.fetch_add(1);

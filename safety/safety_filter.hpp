@@ -132,6 +132,9 @@ class SafetyFilter {
   // The last command update() produced and how many checks ran (the WriteGuard's view).
   const drivers::ActuatorCommand& last_output() const noexcept { return last_out_; }
   std::uint64_t checks() const noexcept { return checks_.load(std::memory_order_acquire); }
+  // Streaming mode: cycles since the last fresh command, the stream watchdog's clock (0 when
+  // no stream is watched).
+  std::int32_t stream_age_cycles() const noexcept { return stream_age_; }
   // The filter's own joint velocity estimate [rad/s] (backward difference).
   double joint_velocity(int i) const noexcept { return q_dot_[static_cast<std::size_t>(i)]; }
 

@@ -12,6 +12,7 @@
 
 #include "control/loop/control_cycle.hpp"
 #include "control/loop/periodic_executive.hpp"
+#include "dualv_lcm/robot_state_t.hpp"
 #include "safety/fault.hpp"
 #include "safety/fault_log.hpp"
 #include "safety/safety_filter.hpp"
@@ -131,7 +132,10 @@ class FaultLogDrain {
 };
 
 // One cycle as a telemetry sample (noexcept, no allocation: a copy into fixed arrays).
-runtime::StateSample state_sample(const control::CycleRecord& rec, int n, bool simulated) noexcept {
+runtime::StateSample state_sample(const control::CycleRecord& rec,
+                                  const control::ControlCycle& cycle, int n, double period,
+                                  bool simulated) noexcept {
+  using M = dualv_lcm::robot_state_t;
   runtime::StateSample s;
   s.utime = runtime::wall_utime();
   s.cycle = rec.cycle;
@@ -153,7 +157,17 @@ runtime::StateSample state_sample(const control::CycleRecord& rec, int n, bool s
   const bool running = rec.phase == control::CyclePhase::kRunning;
   s.safety_state = safety::telemetry_state(rec.safety);
   runtime::copy_text(s.safety_text, safety::to_string(rec.safety.state));
-  s.status_flags = (simulated ? 1 : 0) | (running ? 16 : 0) | (rec.safety.latched ? 2 : 0);
+  s.status_flags = (simulated ? M::FLAG_SIMULATED : 0) | (running ? M::FLAG_PROGRAM_RUNNING : 0) |
+                   (rec.safety.latched ? M::FLAG_ESTOP_LATCHED : 0);
+  if (const trajectory::StreamingReference* ref = cycle.stream()) {
+    if (cycle.streaming() && rec.safety.state == safety::SafetyState::kOperational) {
+      s.status_flags |= M::FLAG_STREAMING;
+      s.stream_age = cycle.safety().stream_age_cycles() * period;
+    }
+    for (int k = 0; k < 3; ++k) s.stream_target[k] = ref->target()[k];
+    s.stream_accepted = static_cast<std::int64_t>(ref->accepted());
+    s.stream_refused = static_cast<std::int64_t>(ref->refused());
+  }
   return s;
 }
 
@@ -300,6 +314,9 @@ RunResult run_loop(const RobotConfig& config, const trajectory::Program* program
       stream_end_cycle = info.cycle;
     cycle.note_timing(info.skipped_releases > 0, info.consecutive_misses);
     const control::CycleStatus s = cycle.step(io, rec);
+    // Every cycle, stops included: the operator watches an SS1 ramp or an STO on telemetry.
+    if (options.telemetry)
+      options.telemetry->push_state(state_sample(rec, cycle, result.n, period, simulated));
     const double internal = after_cycle ? after_cycle() : std::nan("");
     if (after_cycle && std::isnan(internal)) {  // the simulated plant itself failed
       failed = true;
@@ -329,7 +346,6 @@ RunResult run_loop(const RobotConfig& config, const trajectory::Program* program
     row.lambda_dot = rec.ref.phase.lambda_dot;
     row.lambda_dd = rec.ref.phase.lambda_dd;
     if (result.rows.size() < result.rows.capacity()) result.rows.push_back(row);
-    if (options.telemetry) options.telemetry->push_state(state_sample(rec, result.n, simulated));
     if (stream)  // held for settle_time after a normal end, else until max_stream_time
       return (stream_end_cycle >= 0 && info.cycle >= stream_end_cycle + settle_cycles) ||
                      info.cycle >= total_cycles
@@ -392,10 +408,7 @@ RunResult run_loop(const RobotConfig& config, const trajectory::Program* program
   result.robot_time = static_cast<double>(result.rows.size()) * period;
   if (const trajectory::StreamingReference* ref = cycle.stream()) {
     result.stream.accepted = ref->accepted();
-    for (auto s :
-         {trajectory::TargetStatus::kNonFinite, trajectory::TargetStatus::kOutsideWorkspace,
-          trajectory::TargetStatus::kNotActive})
-      result.stream.refused += ref->refused(s);
+    result.stream.refused = ref->refused();
   }
   compute_metrics(run_program, result);
   result.wall_time =

@@ -113,6 +113,7 @@ class ControlCycle {
   // The safety filter: stop/reset requests from any thread (safety().request_stop(...)),
   // its fault log (drained by a non-RT thread), its report.
   safety::SafetyFilter& safety() noexcept { return safety_; }
+  const safety::SafetyFilter& safety() const noexcept { return safety_; }
   const safety::WriteGuard& write_guard() const noexcept { return guard_; }
 
   // Inputs for the next step()'s watchdogs (RT thread): the periodic executive's deadline

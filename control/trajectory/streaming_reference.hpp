@@ -76,6 +76,10 @@ class StreamingReference {
   std::uint64_t refused(TargetStatus s) const noexcept {
     return refused_[static_cast<int>(s) < 4 ? static_cast<int>(s) : 0];
   }
+  std::uint64_t refused() const noexcept {  // for any reason
+    return refused(TargetStatus::kNonFinite) + refused(TargetStatus::kOutsideWorkspace) +
+           refused(TargetStatus::kNotActive);
+  }
 
  private:
   const model::Model* model_;

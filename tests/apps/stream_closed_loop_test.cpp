@@ -18,9 +18,11 @@
 #include <vector>
 
 #include "apps/experiment/closed_loop.hpp"
+#include "dualv_lcm/robot_state_t.hpp"
 #include "runtime/channels.hpp"
 #include "runtime/command_auth.hpp"
 #include "runtime/command_channel.hpp"
+#include "runtime/telemetry_publisher.hpp"
 
 namespace dualv::apps {
 namespace {
@@ -87,6 +89,10 @@ class StreamRun {
     std::filesystem::create_directories(dir_);
     channel_ = std::make_unique<runtime::CommandChannel>(lcm_, runtime::CommandVerifier({key_}),
                                                          [this] { return now_; });
+    // Telemetry into an LCM log, drained on the loop's thread in simulated time (no sample
+    // can be dropped by a publisher thread falling behind a faster-than-real-time run).
+    telemetry_ =
+        std::make_unique<runtime::TelemetryPublisher>("file://" + telemetry_path() + "?mode=w");
   }
 
   RunResult run(const Plan& plan, double settle_time = 1.0) {
@@ -95,13 +101,31 @@ class StreamRun {
     o.fault_log_path = faults_path();
     o.settle_time = settle_time;
     o.max_stream_time = 30.0;
+    o.telemetry = telemetry_.get();
     o.before_cycle = [&](std::int64_t cycle) {
       now_ = kEpoch + cycle * 1000;  // the verifier's clock follows simulated time
       plan(cycle, *this);
       while (channel_->poll(0) > 0) {
       }
+      telemetry_->drain();
     };
-    return run_stream_in_process(cfg_, o);
+    RunResult r = run_stream_in_process(cfg_, o);
+    telemetry_->drain();
+    telemetry_.reset();  // closes (flushes) the log
+    return r;
+  }
+
+  // The robot states the run published, read back from its LCM log.
+  std::vector<dualv_lcm::robot_state_t> telemetry_states() const {
+    std::vector<dualv_lcm::robot_state_t> out;
+    lcm::LogFile log(telemetry_path(), "r");
+    if (!log.good()) return out;
+    for (const lcm::LogEvent* e = log.readNextEvent(); e != nullptr; e = log.readNextEvent()) {
+      dualv_lcm::robot_state_t s;
+      if (e->channel == runtime::kStateChannel && s.decode(e->data, 0, e->datalen) == e->datalen)
+        out.push_back(s);
+    }
+    return out;
   }
 
   // A signed setpoint with the next sequence number.
@@ -118,6 +142,7 @@ class StreamRun {
   }
 
   std::string faults_path() const { return (dir_ / "faults.jsonl").string(); }
+  std::string telemetry_path() const { return (dir_ / "telemetry.lcmlog").string(); }
   const RobotConfig& cfg() const { return cfg_; }
   const runtime::CommandChannel& channel() const { return *channel_; }
   std::int64_t now() const { return now_; }
@@ -137,6 +162,7 @@ class StreamRun {
   std::int64_t sequence_ = 0;
   std::int64_t command_seq_ = 0;
   std::unique_ptr<runtime::CommandChannel> channel_;
+  std::unique_ptr<runtime::TelemetryPublisher> telemetry_;
 };
 
 TEST(StreamClosedLoop, TracksAStreamedCircleThenTheWatchdogStopsItWhenTheStreamStops) {
@@ -199,6 +225,38 @@ TEST(StreamClosedLoop, TracksAStreamedCircleThenTheWatchdogStopsItWhenTheStreamS
   // The 20 mm jump of the first setpoint never became a torque step (the paper program's
   // retimed run: 0.6 N m; a reference step of 20 mm would ask kp * Jm * 20 mm, over 100 N m).
   EXPECT_LT(worst_step, 1.0);
+
+  // Telemetry shows the stream: flagged while it runs, its watchdog clock back to zero with
+  // every setpoint (so never above kEvery - 1 cycles) and, after the last one, counting up
+  // by one cycle per cycle to the timeout; the last target is the last setpoint sent.
+  using M = dualv_lcm::robot_state_t;
+  const auto states = rig.telemetry_states();
+  ASSERT_GT(states.size(), 6000u);
+  std::vector<const M*> streaming;
+  for (const M& s : states)
+    if ((s.status_flags & M::FLAG_STREAMING) != 0) streaming.push_back(&s);
+  ASSERT_GT(streaming.size(), 6000u);
+  const std::size_t silent = timeout_cycles - 1;  // the samples after the last setpoint
+  for (std::size_t k = 0; k + silent < streaming.size(); ++k)
+    EXPECT_LE(streaming[k]->stream_age, (kEvery - 1) * 1e-3 + 1e-12)
+        << "cycle " << streaming[k]->cycle;
+  for (std::size_t k = streaming.size() - silent; k < streaming.size(); ++k)
+    EXPECT_NEAR(streaming[k]->stream_age - streaming[k - 1]->stream_age, 1e-3, 1e-12)
+        << "cycle " << streaming[k]->cycle;
+  const M& last = *streaming.back();
+  EXPECT_NEAR(last.stream_age, timeout - 1e-3, 1e-12);  // the next cycle's 0.1 s trips SS1
+  const model::Pose sent = circle(centre, last_setpoint_cycle * 1e-3);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(last.stream_target[k], sent[k], 1e-12);
+  EXPECT_EQ(static_cast<std::uint64_t>(last.stream_accepted), r.stream.accepted);
+  EXPECT_EQ(last.stream_refused, 0);
+  // Then the stop itself is on telemetry too: SS1 right after the last streaming sample, no
+  // longer flagged as streaming, until the torque is off.
+  const auto after = std::find_if(states.begin(), states.end(),
+                                  [&](const M& s) { return s.cycle == last.cycle + 1; });
+  ASSERT_NE(after, states.end());
+  EXPECT_EQ(after->safety_state, M::SAFETY_SS1);
+  EXPECT_EQ(after->status_flags & M::FLAG_STREAMING, 0);
+  EXPECT_EQ(states.back().safety_state, M::SAFETY_STO);
 }
 
 TEST(StreamClosedLoop, RefusedSetpointsNeverChangeXdAndASignedStopEndsTheStreamWithoutAFault) {

@@ -37,6 +37,10 @@ StateSample make_state(std::int64_t cycle) {
   s.safety_state = dualv_lcm::robot_state_t::SAFETY_OPERATIONAL;
   copy_text(s.safety_text, "operational");
   s.status_flags = dualv_lcm::robot_state_t::FLAG_SIMULATED;
+  s.stream_target = {0.012, 0.251, -0.002};
+  s.stream_age = 0.004;
+  s.stream_accepted = 123;
+  s.stream_refused = 2;
   return s;
 }
 
@@ -117,6 +121,10 @@ TEST(TelemetryPublisher, PublishesStateFaultAndStatsOnMemq) {
   EXPECT_EQ(s.segment, 2);
   EXPECT_EQ(s.safety_text, "operational");
   EXPECT_EQ(s.status_flags, dualv_lcm::robot_state_t::FLAG_SIMULATED);
+  EXPECT_DOUBLE_EQ(s.stream_target[1], 0.251);
+  EXPECT_DOUBLE_EQ(s.stream_age, 0.004);
+  EXPECT_EQ(s.stream_accepted, 123);
+  EXPECT_EQ(s.stream_refused, 2);
   EXPECT_EQ(s.utime, 1'700'000'000'007'000);
 
   ASSERT_EQ(c.faults.size(), 1u);
