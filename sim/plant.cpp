@@ -159,8 +159,7 @@ const char* to_string(PlantStatus s) noexcept {
 Plant::Plant(const model::Model& configured, const PlantConfig& config)
     : true_model_(make_true_model(configured, config)), config_(config), data_(true_model_) {
   const int n = true_model_.n;
-  if (n >= 3 && n <= model::kMaxChains && model::LaneDynamics::supports(true_model_))
-    lanes_.emplace(true_model_, config_.allow_avx2);
+  if (model::LaneDynamics::supports(true_model_)) lanes_.emplace(true_model_, config_.allow_avx2);
   for (auto& slot : delay_line_) slot = model::JointVector::Zero(n);
   pending_ = model::JointVector::Zero(n);
   target_ = model::JointVector::Zero(n);
