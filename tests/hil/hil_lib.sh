@@ -11,3 +11,12 @@ wait_for() {
   done
   return 1
 }
+
+# skip_outside_lcm_guest: exit 77 (ctest: skipped) unless this runs in the HIL guest or a
+# private network namespace, the only places LCM's UDP multicast may be sent.
+skip_outside_lcm_guest() {
+  if [[ "${DUALV_HIL:-}" != uml && "${DUALV_HIL:-}" != netns ]]; then
+    echo "skipped: LCM multicast only inside the guest or a private network namespace"
+    exit 77
+  fi
+}

@@ -6,12 +6,10 @@
 # configuration tolerates deadline misses: this test is about the command path.
 # Usage: lcm_estop_hil.sh DUALV_BINARY CONFIG_YAML
 set -u
+. "$(dirname "$0")/hil_lib.sh"
 dualv=${1:?usage: lcm_estop_hil.sh DUALV_BINARY CONFIG_YAML}
 config=${2:?usage: lcm_estop_hil.sh DUALV_BINARY CONFIG_YAML}
-if [[ "${DUALV_HIL:-}" != uml && "${DUALV_HIL:-}" != netns ]]; then
-  echo "skipped: LCM multicast only inside the guest or a private network namespace"
-  exit 77
-fi
+skip_outside_lcm_guest
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/dualv-estop-hil.XXXXXX") || exit 1
 trap 'rm -rf "$tmp"' EXIT
 url='udpm://239.255.76.67:7667?ttl=0'

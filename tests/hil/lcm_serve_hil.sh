@@ -8,10 +8,7 @@ set -u
 . "$(dirname "$0")/hil_lib.sh"
 dualv=${1:?usage: lcm_serve_hil.sh DUALV_BINARY CONFIG_YAML}
 config=${2:?usage: lcm_serve_hil.sh DUALV_BINARY CONFIG_YAML}
-if [[ "${DUALV_HIL:-}" != uml && "${DUALV_HIL:-}" != netns ]]; then
-  echo "skipped: LCM multicast only inside the guest or a private network namespace"
-  exit 77
-fi
+skip_outside_lcm_guest
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/dualv-serve-hil.XXXXXX") || exit 1
 pid=
 trap '[[ -n "$pid" ]] && kill "$pid" 2>/dev/null; rm -rf "$tmp"' EXIT

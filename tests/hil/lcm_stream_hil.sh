@@ -9,10 +9,7 @@ set -u
 . "$(dirname "$0")/hil_lib.sh"
 dualv=${1:?usage: lcm_stream_hil.sh DUALV_BINARY CONFIG_YAML}
 config=${2:?usage: lcm_stream_hil.sh DUALV_BINARY CONFIG_YAML}
-if [[ "${DUALV_HIL:-}" != uml && "${DUALV_HIL:-}" != netns ]]; then
-  echo "skipped: LCM multicast only inside the guest or a private network namespace"
-  exit 77
-fi
+skip_outside_lcm_guest
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/dualv-stream-hil.XXXXXX") || exit 1
 pid=
 streamer=
