@@ -130,6 +130,21 @@ struct Sums {
 
 }  // namespace
 
+ChainInertia chain_inertia(const Chain& ch) noexcept {
+  const Body& cr = ch.crank;
+  const Body& cp = ch.coupler;
+  const double l1 = ch.crank_length, l2 = ch.coupler_length, d = cp.com.x();
+  ChainInertia c;
+  c.split = cp.com.y() == 0.0;
+  if (c.split) {
+    c.anchor_mass = cp.mass * (d / l2);
+    c.elbow_mass = cp.mass - c.anchor_mass;
+    c.coupler_rotary = cp.inertia - cp.mass * d * (l2 - d);
+  }
+  c.crank_about_axis = cr.inertia + cr.mass * cr.com.squaredNorm() + c.elbow_mass * l1 * l1;
+  return c;
+}
+
 Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twist& X_dot) noexcept {
   if (const Status s = update_velocity_kinematics(model, data, X, X_dot); s != Status::kOk)
     return s;
@@ -170,7 +185,9 @@ Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twis
     const double l1 = ch.crank_length, l2 = ch.coupler_length;
     // |u| = l2 (IK), and C_dot - B_dot = phi_dot E u: phi_dot = Jphi X_dot with
     // Jphi = (E u)^T (C_dot - B_dot) / l2^2 = ((-u_y, u_x, u . r) - (u . a) jm) / l2^2.
-    const double inv_l2 = 1.0 / l2;  // the one division here (they bound this loop's speed)
+    // Divisions bound this loop's speed: one by l2 here (chain_inertia's depend on the model
+    // only, so they wait on nothing).
+    const double inv_l2 = 1.0 / l2;
     const double inv_uu = inv_l2 * inv_l2;
     const Eigen::Vector3d Jphi =
         (Eigen::Vector3d(-u.y(), u.x(), u.dot(r)) - u.dot(a) * jm) * inv_uu;
@@ -178,20 +195,16 @@ Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twis
     const Vec2 bias_C = -th_dot * th_dot * r;
     const double bias_phi = perp(u).dot(bias_C - bias_B) * inv_uu;
 
-    // A coupler whose centre of mass lies on its axis, at d from the elbow, is exactly the
-    // point masses m (1 - d/l2) at B_i and m d/l2 at C_i plus the rotary inertia
-    // J = I - m d (l2 - d) (same mass, centre of mass and inertia about it): the share at
-    // B_i turns with the crank, the one at C_i rides on the plate. Off the axis, the general
-    // body form below.
-    const bool split = ch.coupler.com.y() == 0.0;
-    const double mB = split ? ch.coupler.mass * (1.0 - ch.coupler.com.x() * inv_l2) : 0.0;
+    // The coupler split into shares at B_i and C_i and a rotary inertia when its centre of
+    // mass is on its axis (chain_inertia); off the axis, the general body form below.
+    const ChainInertia ci = chain_inertia(ch);
+    const double mB = ci.elbow_mass;
 
     // Crank (+ the coupler's share at B_i): a pure rotation about A_i, so its share
-    // collapses to the inertia about the axis, I_A = I + m |rc|^2 + mB l1^2 (|rc| = |com|:
-    // a rotation keeps lengths): M += I_A jm jm^T, h += I_A qdd_bias jm (the centripetal
-    // terms are orthogonal to E rc and E a), g -= (m E rc + mB E a) . gravity jm.
-    const double IA = ch.crank.inertia + ch.crank.mass * ch.crank.com.squaredNorm() + mB * l1 * l1;
-    add_rotation(IA, jm, qdd_bias, S);
+    // collapses to the inertia about the axis I_A: M += I_A jm jm^T, h += I_A qdd_bias jm
+    // (the centripetal terms are orthogonal to E rc and E a), g -= (m E rc + mB E a) .
+    // gravity jm.
+    add_rotation(ci.crank_about_axis, jm, qdd_bias, S);
     if (has_gravity) {
       const Vec2 dir = a / l1;  // |a| = l1 (IK)
       const Vec2 rc1(dir.x() * ch.crank.com.x() - dir.y() * ch.crank.com.y(),
@@ -202,15 +215,13 @@ Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twis
       S.g2 -= wg * jm[2];
     }
 
-    if (split) {
-      const double d = ch.coupler.com.x();
-      const double mC = ch.coupler.mass * d * inv_l2;
+    if (ci.split) {
+      const double mC = ci.anchor_mass;
       pm += mC;
       pm_r += mC * r;
       pm_rr += mC * ch.plate_anchor.squaredNorm();  // |r| = |c_i|
       // Rotary share: M += J Jphi Jphi^T, h += J bias_phi Jphi (no gravity: no mass).
-      const double J = ch.coupler.inertia - ch.coupler.mass * d * (l2 - d);
-      add_rotation(J, Jphi, bias_phi, S);
+      add_rotation(ci.coupler_rotary, Jphi, bias_phi, S);
       continue;
     }
     // General coupler: angle phi of u = C_i - B_i, centre of mass rc2 from B_i.

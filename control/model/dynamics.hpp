@@ -8,6 +8,22 @@
 
 namespace dualv::model {
 
+// One chain's inertia as the dynamics use it. A coupler whose centre of mass lies on its axis
+// (com.y == 0), at d from the elbow, is exactly the point masses m (1 - d/l2) at B_i and
+// m d/l2 at C_i plus the rotary inertia J = I - m d (l2 - d) (same mass, centre of mass and
+// inertia about it): the share at B_i turns with the crank, the one at C_i rides on the
+// plate. The crank with the elbow share is a pure rotation about A_i with the inertia
+// I_A = I + m |com|^2 + m_B l1^2 (a rotation keeps lengths). An off-axis coupler is not
+// split (shares and J zero: it needs the general body form) and I_A is the crank's alone.
+struct ChainInertia {
+  bool split = false;
+  double elbow_mass = 0.0;        // m_B [kg]
+  double anchor_mass = 0.0;       // m_C [kg]
+  double coupler_rotary = 0.0;    // J [kg m^2]
+  double crank_about_axis = 0.0;  // I_A [kg m^2]
+};
+ChainInertia chain_inertia(const Chain& ch) noexcept;
+
 // Fills data.M, data.h, data.g and the velocity kinematics (update_velocity_kinematics:
 // chain, Jm, q_dot, qdd_bias; not the joint angles data.q).
 Status update_dynamics(const Model& model, Data& data, const Pose& X, const Twist& X_dot) noexcept;

@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "control/model/dynamics.hpp"
 #include "control/model/kinematics.hpp"
 
 // Lane vectors pass between functions only inside this file, all inlined into
@@ -226,16 +227,13 @@ LaneDynamics::LaneDynamics(const Model& model, bool allow_avx2) : n_(model.n) {
       chains_.gravity_moment_x[i] = chains_.gravity_moment_y[i] = 0.0;
       continue;
     }
-    // The coupler (centre of mass on its axis, at d from the elbow) is exactly the point
-    // masses m (1 - d/l2) at B_i and m d/l2 at C_i plus the rotary inertia
-    // J = I - m d (l2 - d): the elbow share turns with the crank, the anchor share rides on
-    // the plate (update_dynamics).
+    // The coupler split (supports(): every one is): the elbow share turns with the crank,
+    // the anchor share rides on the plate.
     const Body& cr = ch.crank;
-    const Body& cp = ch.coupler;
-    const double d = cp.com.x();
-    const double mB = cp.mass * (1.0 - d / l2), mC = cp.mass * d / l2;
-    chains_.crank_inertia[i] = cr.inertia + cr.mass * cr.com.squaredNorm() + mB * l1 * l1;
-    chains_.coupler_inertia[i] = cp.inertia - cp.mass * d * (l2 - d);
+    const ChainInertia ci = chain_inertia(ch);
+    const double mB = ci.elbow_mass, mC = ci.anchor_mass;
+    chains_.crank_inertia[i] = ci.crank_about_axis;
+    chains_.coupler_inertia[i] = ci.coupler_rotary;
     chains_.gravity_moment_x[i] = (cr.mass * cr.com.x() + mB * l1) / l1;
     chains_.gravity_moment_y[i] = cr.mass * cr.com.y() / l1;
     plate_.mass += mC;
