@@ -16,11 +16,15 @@ const Model& dual_v() {
   return m;
 }
 
+// The state every benchmark evaluates: a pose near home, a moderate twist.
+const Pose kX = dual_v().home + Pose(0.01, -0.01, 0.05);
+const Twist kXd(0.1, 0.05, 0.2);
+
 void BM_InverseDynamicsWithProjection(benchmark::State& state) {
   const Model& m = dual_v();
   Data d(m);
-  Pose X = m.home + Pose(0.01, -0.01, 0.05);
-  const Twist Xd(0.1, 0.05, 0.2), Xdd(2.0, -1.0, 5.0);
+  Pose X = kX;
+  const Twist Xd = kXd, Xdd(2.0, -1.0, 5.0);
   JointVector tau(m.n), tau_star(m.n);
   for (auto _ : state) {
     // inverse_dynamics runs IK, Jm, Jm_dot, M, h, g and the projectors.
@@ -35,8 +39,8 @@ BENCHMARK(BM_InverseDynamicsWithProjection);
 void BM_UpdateKinematics(benchmark::State& state) {
   const Model& m = dual_v();
   Data d(m);
-  const Pose X = m.home + Pose(0.01, -0.01, 0.05);
-  const Twist Xd(0.1, 0.05, 0.2);
+  const Pose& X = kX;
+  const Twist& Xd = kXd;
   for (auto _ : state) {
     update_kinematics(m, d, X, Xd);
     benchmark::DoNotOptimize(d.Jm_dot.data());
@@ -47,8 +51,8 @@ BENCHMARK(BM_UpdateKinematics);
 void BM_ForwardDynamics(benchmark::State& state) {
   const Model& m = dual_v();
   Data d(m);
-  const Pose X = m.home + Pose(0.01, -0.01, 0.05);
-  const Twist Xd(0.1, 0.05, 0.2);
+  const Pose& X = kX;
+  const Twist& Xd = kXd;
   JointVector tau = JointVector::Constant(m.n, 1.0);
   Twist Xdd;
   for (auto _ : state) {
@@ -61,7 +65,7 @@ BENCHMARK(BM_ForwardDynamics);
 void BM_ForwardKinematicsWarmSeed(benchmark::State& state) {
   const Model& m = dual_v();
   Data d(m);
-  const Pose X = m.home + Pose(0.01, -0.01, 0.05);
+  const Pose& X = kX;
   JointVector q;
   inverse_kinematics(m, d, X, q);
   const Pose seed = X + Pose(1e-4, -1e-4, 1e-4);
@@ -73,15 +77,13 @@ void BM_ForwardKinematicsWarmSeed(benchmark::State& state) {
 }
 BENCHMARK(BM_ForwardKinematicsWarmSeed);
 
-}  // namespace
-
-// The plant's right-hand side in parts (README's performance notes): the velocity kinematics
-// alone, then with the mass matrix and bias terms.
+// The dynamics' parts: the velocity kinematics alone, then with the mass matrix and bias
+// terms (scalar), then the same with the chains in SIMD lanes (the plant's right-hand side).
 void BM_VelocityKinematics(benchmark::State& state) {
   const Model& m = dual_v();
   Data d(m);
-  const Pose X = m.home + Pose(0.01, -0.01, 0.05);
-  const Twist Xd(0.1, 0.05, 0.2);
+  const Pose& X = kX;
+  const Twist& Xd = kXd;
   for (auto _ : state) {
     update_velocity_kinematics(m, d, X, Xd);
     benchmark::DoNotOptimize(d.qdd_bias.data());
@@ -92,8 +94,8 @@ BENCHMARK(BM_VelocityKinematics);
 void BM_UpdateDynamics(benchmark::State& state) {
   const Model& m = dual_v();
   Data d(m);
-  const Pose X = m.home + Pose(0.01, -0.01, 0.05);
-  const Twist Xd(0.1, 0.05, 0.2);
+  const Pose& X = kX;
+  const Twist& Xd = kXd;
   for (auto _ : state) {
     update_dynamics(m, d, X, Xd);
     benchmark::DoNotOptimize(d.M.data());
@@ -101,14 +103,13 @@ void BM_UpdateDynamics(benchmark::State& state) {
 }
 BENCHMARK(BM_UpdateDynamics);
 
-// The same quantities with the chains in SIMD lanes (the plant's right-hand side).
 // Argument 0: baseline x86-64 (SSE2); 1: AVX2 where this CPU has it.
 void BM_LaneDynamics(benchmark::State& state) {
   const Model& m = dual_v();
   const LaneDynamics lanes(m, state.range(0) != 0);
   LaneDynamics::Output out;
-  const Pose X = m.home + Pose(0.01, -0.01, 0.05);
-  const Twist Xd(0.1, 0.05, 0.2);
+  const Pose& X = kX;
+  const Twist& Xd = kXd;
   for (auto _ : state) {
     lanes.update(X, Xd, out);
     benchmark::DoNotOptimize(out.M.data());
@@ -116,3 +117,5 @@ void BM_LaneDynamics(benchmark::State& state) {
   state.SetLabel(lanes.uses_avx2() ? "avx2" : "sse2");
 }
 BENCHMARK(BM_LaneDynamics)->Arg(1)->Arg(0);
+
+}  // namespace
