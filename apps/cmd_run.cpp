@@ -18,6 +18,7 @@
 #include "apps/commands.hpp"
 #include "apps/config_path.hpp"
 #include "apps/experiment/closed_loop.hpp"
+#include "apps/experiment/machine.hpp"
 #include "apps/experiment/report.hpp"
 #include "apps/experiment/robot_config.hpp"
 #include "common/yaml_reader.hpp"
@@ -32,6 +33,9 @@
 #include "runtime/command_channel.hpp"
 #include "runtime/service_notifier.hpp"
 #include "runtime/telemetry_publisher.hpp"
+#include "safety/fault_log.hpp"
+#include "sim/plant.hpp"
+#include "sim/sim_actuator_set.hpp"
 
 namespace dualv::apps {
 
@@ -56,104 +60,143 @@ struct RunArgs {
 // The program name of `dualv start` that starts a streaming run instead of a program file.
 constexpr const char* kStreamProgram = "stream";
 
-// `dualv run --serve`: waits for signed start commands (`dualv start PROGRAM --key K`) and runs
-// each program (the proposed method) in turn; `dualv start stream` runs a stream of signed
-// setpoints (`dualv stream`) until a signed stop or until the stream goes silent (SS1). After a
-// run that ended in a safety stop, or an e-stop while idle, a start is refused until a signed
-// reset: a reset never starts motion and nothing moves again without both. Ends on
-// SIGINT/SIGTERM: at once while idle, after the controlled stop (SS1) of a run in progress.
-// `run_one(nullptr)` runs a stream.
+// `dualv run --serve`: the service. The machine's loop runs from boot to shutdown (idle:
+// drives disabled at 0 N m, telemetry at 50 Hz); signed `dualv start PROGRAM --key K` commands
+// are prepared here (loaded, pre-flighted, rebased on the pose the loop reports) and handed to
+// the loop, which takes them at a cycle boundary; `dualv start stream` follows signed setpoints
+// (`dualv stream`) until a signed stop or until the stream goes silent (SS1). The loop refuses a
+// start while a stop is latched (after any safety stop, or an e-stop while idle, even one that
+// came while the program was being prepared): a signed reset clears it, and a reset never starts
+// motion. Ends on SIGINT/SIGTERM: at once while idle, after the controlled stop (SS1) of a
+// program in progress.
 //
-// systemd hears the state as STATUS= lines; while idle this loop is the watchdog's proof of
-// life (one beat per poll), while a program runs the control loop is (one beat per cycle).
-int serve(const RobotConfig& cfg, runtime::CommandChannel& commands,
-          runtime::ServiceNotifier& service,
-          const std::function<RunResult(const trajectory::Program*)>& run_one) {
-  bool need_reset = false;
-  std::uint64_t estops = commands.estop_requests();
+// systemd hears the state as STATUS= lines; every cycle of the loop is the watchdog's proof of
+// life (ServiceNotifier::beat in the loop's hooks), so a hung loop gets the service killed.
+int serve(const RobotConfig& cfg, Machine& machine, runtime::CommandChannel& commands,
+          runtime::ServiceNotifier& service) {
+  control::Executor& loop = machine.executor();
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // a service's log: one line at a time
   fmt::print("dualv run: serving: waiting for `dualv start PROGRAM` (Ctrl-C to end)\n");
-  std::fflush(stdout);
   service.ready("waiting for start");
+  // What the loop follows now, for its messages: file name and start key.
+  struct Current {
+    std::uint64_t id = 0;
+    std::string name;  // "stream" or the program file
+  } current;
+  std::uint64_t estops = commands.estop_requests();
+  auto end_of = [&](const control::LoopEvent& e, bool ok) {
+    if (e.id == 0 || e.id != current.id) return;
+    const std::string what = current.name == kStreamProgram ? std::string("stream")
+                                                           : current.name;
+    const std::string failure =
+        ok ? std::string()
+           : fmt::format("cycle {} (t = {:.3f} s): {}{}", e.cycle, e.t, control::to_string(e.status),
+                         e.latched ? " (" + safety::describe_faults(e.latched) + ")" : "");
+    fmt::print("dualv run: {} {}{}\n", what, ok ? "done" : "STOPPED", ok ? "" : ": " + failure);
+    const std::string name = std::filesystem::path(what).filename().string();
+    service.status(ok ? fmt::format("waiting for start (last: {} done)", name)
+                      : fmt::format("stopped: {}: {}; waiting for a signed reset", name, failure));
+    current = {};
+  };
   for (;;) {
-    service.beat();
-    if (stop_signal_received()) {
+    machine.pump();
+    // A signal ends the service once nothing runs: a program in progress is stopped (SS1,
+    // latched by the signal itself) and reported first.
+    if (stop_signal_received() && current.id == 0) {
       fmt::print("dualv run: stop signal: ending the service\n");
       service.stopping("stopping: signal received");
       return 0;
     }
     if (commands.estop_requests() != estops) {
       estops = commands.estop_requests();
-      if (!need_reset) service.status("stopped: e-stop while idle; waiting for a signed reset");
-      need_reset = true;
-      fmt::print("dualv run: e-stop received while idle: a reset is needed before a start\n");
+      if (current.id == 0) {
+        service.status("stopped: e-stop while idle; waiting for a signed reset");
+        fmt::print("dualv run: e-stop received while idle: a reset is needed before a start\n");
+      }
     }
-    // Setpoints while no stream runs move nothing: drop them, so a stream starts from fresh ones.
-    runtime::VerifiedSetpoint stale;
-    while (commands.try_pop_setpoint(stale)) {
+    control::LoopEvent e;
+    while (loop.poll_event(e)) {
+      using K = control::LoopEvent::Kind;
+      if (e.kind == K::kFinished) end_of(e, true);
+      if (e.kind == K::kStopped) end_of(e, false);
+      if (e.kind == K::kRefused && e.id == current.id) {
+        fmt::print(stderr, "dualv run: start of '{}' refused: {}\n", current.name,
+                   e.reason == control::RefuseReason::kLatched
+                       ? std::string("the last stop has not been reset")
+                       : control::to_string(e.reason));
+        current = {};
+      }
+      if (e.kind == K::kTorqueOff)
+        fmt::print("dualv run: torque off (STO); a signed reset is needed before a start\n");
+      if (e.kind == K::kReset) {
+        fmt::print("dualv run: reset accepted: drives disabled, a start command is accepted again\n");
+        service.status("waiting for start");
+      }
     }
     runtime::VerifiedCommand cmd;
     if (!commands.try_pop(cmd)) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      if (!machine.paced()) continue;  // stepped: the pump above was a cycle
+      std::this_thread::sleep_for(std::chrono::milliseconds(4));
       continue;
     }
     if (cmd.kind == runtime::CommandKind::kReset) {
-      need_reset = false;
+      loop.submit(control::LoopCommand::Kind::kReset);
       fmt::print("dualv run: reset (key {}): a start command is accepted again\n", cmd.key_id);
-      service.status("waiting for start");
-    } else if (cmd.kind == runtime::CommandKind::kStartProgram) {
-      if (need_reset) {
-        fmt::print("dualv run: start of '{}' refused: the last stop has not been reset\n",
-                   cmd.program);
-        continue;
-      }
-      if (std::string(cmd.program) == kStreamProgram) {
+      continue;
+    }
+    if (cmd.kind == runtime::CommandKind::kStop) {
+      loop.submit(control::LoopCommand::Kind::kStop);
+      continue;
+    }
+    if (cmd.kind != runtime::CommandKind::kStartProgram || stop_signal_received()) continue;
+    // The e-stop count when the start came: one that comes while it is prepared refuses it.
+    const std::uint64_t epoch = loop.estop_epoch();
+    const control::LoopSnapshot snap = loop.snapshot();
+    if (snap.latched != 0 || snap.mode == control::LoopMode::kSafeStop) {
+      fmt::print(stderr, "dualv run: start of '{}' refused: the last stop has not been reset\n",
+                 cmd.program);
+      continue;
+    }
+    if (current.id != 0) {
+      fmt::print(stderr, "dualv run: start of '{}' refused: {} is running\n", cmd.program,
+                 current.name);
+      continue;
+    }
+    try {
+      std::unique_ptr<control::PreparedReference> ref;
+      std::string name = cmd.program;
+      if (name == kStreamProgram) {
         fmt::print("dualv run: starting stream (key {}): following signed setpoints on {}\n",
                    cmd.key_id, runtime::kSetpointChannel);
-        std::fflush(stdout);
+        ref = loop.prepare_stream(cfg.trajectory.streaming, cfg.trajectory.limits.workspace,
+                                  epoch);
         service.status(fmt::format("streaming (key {})", cmd.key_id));
-        try {
-          const RunResult r = run_one(nullptr);
-          fmt::print(
-              "dualv run: stream {}{}; setpoints: {} followed, {} refused by the loop, {} refused "
-              "on receipt\n",
-              r.ok ? "done" : "STOPPED", r.ok ? "" : ": " + r.failure, r.stream.accepted,
-              r.stream.refused, commands.setpoints_refused());
-          need_reset = need_reset || !r.ok;
-          service.status(
-              r.ok ? std::string("waiting for start (last: stream done)")
-                   : fmt::format("stopped: stream: {}; waiting for a signed reset", r.failure));
-        } catch (const std::exception& e) {
-          fmt::print(stderr, "dualv run: stream refused: {}\n", e.what());
-        }
-        std::fflush(stdout);
-        continue;
-      }
-      std::string file = cmd.program;
-      if (!std::filesystem::exists(file)) file = default_config_dir() + "/" + cmd.program;
-      if (!std::filesystem::exists(file)) file += ".yaml";
-      try {
+      } else {
+        std::string file = cmd.program;
+        if (!std::filesystem::exists(file)) file = default_config_dir() + "/" + cmd.program;
+        if (!std::filesystem::exists(file)) file += ".yaml";
         trajectory::ProgramContext ctx;
         ctx.start = ctx.home = cfg.model.home;
         ctx.workspace = cfg.trajectory.limits.workspace;
         const trajectory::Program program = trajectory::load_program_file(file, ctx);
-        trajectory::preflight_or_throw(cfg.model, program, cfg.trajectory.limits);
+        const trajectory::Program timed =
+            trajectory::with_timing(program, paper_variants().front().timing);
+        trajectory::preflight_or_throw(cfg.model, timed, cfg.trajectory.limits);
         if (stop_signal_received()) continue;  // ending: start nothing new
+        ref = loop.prepare_program(timed, cfg.trajectory.rebase, epoch);
+        name = file;
         fmt::print("dualv run: starting {} (key {})\n", file, cmd.key_id);
-        const std::string name = std::filesystem::path(file).filename().string();
-        service.status(fmt::format("running {} (key {})", name, cmd.key_id));
-        const RunResult r = run_one(&program);
-        fmt::print("dualv run: {} {}{}\n", file, r.ok ? "done" : "STOPPED",
-                   r.ok ? "" : ": " + r.failure);
-        need_reset = need_reset || !r.ok;
-        service.status(
-            r.ok ? fmt::format("waiting for start (last: {} done)", name)
-                 : fmt::format("stopped: {}: {}; waiting for a signed reset", name, r.failure));
-      } catch (const std::exception& e) {
-        fmt::print(stderr, "dualv run: start of '{}' refused: {}\n", cmd.program, e.what());
+        service.status(fmt::format("running {} (key {})",
+                                   std::filesystem::path(file).filename().string(), cmd.key_id));
       }
+      ref->name = name;
+      current.name = name;
+      current.id = loop.start(std::move(ref));
+      if (current.id == 0) throw std::runtime_error("the control loop's command queue is full");
+    } catch (const std::exception& e) {
+      fmt::print(stderr, "dualv run: start of '{}' refused: {}\n", cmd.program, e.what());
+      current = {};
     }
-    std::fflush(stdout);
   }
 }
 
@@ -229,18 +272,33 @@ int run(const RunArgs& args) {
     return 2;
   }
   std::unique_ptr<drivers::CanopenDrives> drives;
+  // A paced loop's real-time thread is set up before the drives boot (mlockall and the rest
+  // take a while), so their first cycle follows the priming at once.
+  const bool paced = args.realtime || !args.can.empty() || args.serve;
+  control::MonotonicClock mono;
+  std::unique_ptr<control::LoopThread> loop_thread;
+  if (paced) {
+    control::ExecutiveConfig exec = cfg.loop;
+    exec.realtime = true;
+    loop_thread = std::make_unique<control::LoopThread>(exec, mono, &mono);
+    for (const auto& w : loop_thread->launch().warnings) fmt::print(stderr, "dualv run: {}\n", w);
+  }
+  std::uint64_t rpdo_deadline_ns = 0;
+  std::int64_t primed_ns = 0;
   if (!args.can.empty()) {
     if (args.variants.empty()) {  // on drives, the proposed method only unless asked
       variants.clear();
       variants.push_back(paper_variants().front());
     }
     const drivers::CanConfig can = drivers::load_can_config(YamlReader::load_file(cfg.path)["can"]);
+    rpdo_deadline_ns = can.rpdo_deadline_ns;
     drivers::CanopenSetupOptions opts;
     opts.interface = args.can;
     opts.control_period_s = cfg.period();
     opts.log = [](const std::string& line) { fmt::print("  {}\n", line); };
     fmt::print("dualv run: booting the drives on {}\n", args.can);
     drives = drivers::open_canopen_drives(can, opts);
+    primed_ns = mono.now_ns();
   }
 
   const std::string out = args.out.empty() ? default_out_dir() : args.out;
@@ -249,7 +307,7 @@ int run(const RunArgs& args) {
       "dualv run: {} ({} segments, {:.2f} s) on {} at {:.0f} Hz{}\n", program_file, program.size(),
       program.duration(),
       drives ? "the CANopen drives on " + args.can : std::string("the in-process simulated Dual-V"),
-      cfg.rate_hz(), args.realtime || drives ? ", paced in real time" : ", simulated time");
+      cfg.rate_hz(), paced ? ", paced in real time" : ", simulated time");
   // Telemetry: an LCM log in the output folder (LCM's file provider: no network), or live.
   const std::string log_file = out + "/telemetry.lcmlog";
   runtime::TelemetryPublisher telemetry(args.lcm.empty() ? runtime::log_url(log_file) : args.lcm);
@@ -274,42 +332,66 @@ int run(const RunArgs& args) {
     commands->set_setpoint_check(setpoint_check(cfg));
     commands->start();
   }
+  if (args.serve && !commands) {
+    fmt::print(stderr, "dualv run: --serve needs --commands URL (or --lcm URL)\n");
+    return 2;
+  }
   // Ctrl-C: a controlled stop (SS1), not a dropped robot; the idle service ends cleanly.
   install_stop_signal_handlers(args.serve);
-  if (args.serve) {
-    if (!commands) {
-      fmt::print(stderr, "dualv run: --serve needs --commands URL (or --lcm URL)\n");
-      return 2;
-    }
-    return serve(cfg, *commands, service, [&](const trajectory::Program* p) {
-      RunOptions opts;
-      opts.telemetry = &telemetry;
-      opts.commands = commands.get();
-      opts.service = &service;
-      opts.fault_log_path = out + "/faults.jsonl";
-      opts.realtime = true;
-      if (!p)
-        return drives ? run_stream(cfg, drives->actuators(), opts)
-                      : run_stream_in_process(cfg, opts);
-      return drives ? run_program(cfg, *p, paper_variants().front(), drives->actuators(), opts)
-                    : run_in_process(cfg, *p, paper_variants().front(), opts);
-    });
+
+  // The machine: the in-process simulation or the drives, and the one loop that owns them.
+  std::unique_ptr<sim::Plant> plant;
+  std::unique_ptr<sim::SimActuatorSet> sim_io;
+  if (!drives) {
+    plant = std::make_unique<sim::Plant>(cfg.model, cfg.plant);
+    plant->reset(cfg.model.home);
+    sim_io = std::make_unique<sim::SimActuatorSet>(*plant);
   }
-  std::vector<RunResult> runs;
-  // Frames sent before the program (boot, priming): the bus report below separates them.
+  MachineOptions mo;
+  mo.pacing = paced ? Pacing::kLoopThread : Pacing::kSimulated;
+  mo.telemetry = &telemetry;
+  mo.commands = commands.get();
+  mo.service = &service;
+  mo.fault_log_path = out + "/faults.jsonl";
+  // Frames sent before the loop (boot, priming): the bus report below separates them.
   const std::uint64_t syncs_before = drives ? drives->actuators().counters().sync_sent : 0;
+  Machine machine(cfg, drives ? static_cast<drivers::ActuatorSet&>(drives->actuators()) : *sim_io,
+                  mo, plant.get(), std::move(loop_thread));
+  machine.start();
+  if (drives) {
+    // The drives' RPDO deadline ran from the last priming cycle to the loop's first.
+    const double gap_ms = static_cast<double>(machine.first_cycle_ns() - primed_ns) * 1e-6;
+    if (rpdo_deadline_ns > 0 && gap_ms > static_cast<double>(rpdo_deadline_ns) * 1e-6)
+      fmt::print(stderr,
+                 "dualv run: WARNING: the control loop's first cycle came {:.1f} ms after the "
+                 "drives were primed, past their RPDO deadline (can.rpdo_deadline {:.0f} ms): "
+                 "they may report EMCY 8250h; the drives stay disabled until a start, and a "
+                 "signed reset clears the fault\n",
+                 gap_ms, static_cast<double>(rpdo_deadline_ns) * 1e-6);
+    else
+      fmt::print("dualv run: control loop running {:.1f} ms after the drives were primed\n",
+                 gap_ms);
+  }
+  if (args.serve) {
+    const int rc = serve(cfg, machine, *commands, service);
+    machine.shutdown();
+    return rc;
+  }
+
+  std::vector<RunResult> runs;
   const std::string program_name = std::filesystem::path(program_file).filename().string();
   service.ready(fmt::format("starting {}", program_name));
+  // A terminal gets one line rewritten in place; a log gets a line per second of robot time.
+  const bool tty = isatty(fileno(stdout));
   for (const auto& v : variants) {
     if (stop_signal_received()) break;  // stopped by a signal: no further variant starts
+    if (!runs.empty() && !runs.back().ok) {
+      fmt::print("  {:<24} not started: the last variant stopped (a reset is needed)\n", v.name);
+      continue;
+    }
     service.status(fmt::format("running {} ({})", program_name, v.name));
     RunOptions opts;
-    opts.telemetry = &telemetry;
     opts.commands = commands.get();
-    opts.service = &service;
-    opts.fault_log_path = out + "/faults.jsonl";
-    // A terminal gets one line rewritten in place; a log gets a line per second of robot time.
-    const bool tty = isatty(fileno(stdout));
     opts.progress = [tty](const std::string& name, double t, double duration) {
       if (tty) {
         fmt::print("\r  {:<24} t = {:5.2f} / {:.2f} s", name, t, duration);
@@ -318,14 +400,23 @@ int run(const RunArgs& args) {
         fmt::print("  {:<24} t = {:5.2f} / {:.2f} s\n", name, t, duration);
       }
     };
-    opts.realtime = args.realtime;
-    runs.push_back(drives ? run_program(cfg, program, v, drives->actuators(), opts)
-                          : run_in_process(cfg, program, v, opts));
+    try {
+      runs.push_back(machine.run(program, v, opts));
+    } catch (const std::exception& e) {
+      RunResult r;
+      r.variant = v;
+      r.n = cfg.model.n;
+      r.ok = false;
+      r.failure = e.what();
+      runs.push_back(r);
+    }
     const RunResult& r = runs.back();
     fmt::print("{}  {:<24} {} in {:.2f} s wall ({:.0f}x real time){}\n", tty ? "\r" : "", v.name,
                r.ok ? "done" : "FAILED", r.wall_time, r.robot_time / std::max(r.wall_time, 1e-9),
                r.ok ? "" : ": " + r.failure);
   }
+  const control::RunReport loop_report = machine.shutdown();
+  for (auto& r : runs) r.loop = loop_report.stats;
   // The loop is over: systemd stops watching while the results are written.
   std::string ending;
   for (const auto& r : runs)
@@ -337,8 +428,7 @@ int run(const RunArgs& args) {
   telemetry.stop();
   const runtime::TelemetryCounters tc = telemetry.counters();
   fmt::print("\n{}", summary_table(runs));
-  if ((args.realtime || drives) && !runs.empty())
-    fmt::print("\n{}", control::format_loop_stats(runs.back().loop));
+  if (paced && !runs.empty()) fmt::print("\n{}", control::format_loop_stats(loop_report.stats));
   if (drives) {
     // What crossed the bus, as the master counted it (the HIL tests compare it with candump).
     fmt::print("\n{}", bus_report(drives->actuators(), static_cast<std::int64_t>(syncs_before)));

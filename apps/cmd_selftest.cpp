@@ -10,11 +10,9 @@
 // (requests, controller misbehaviour, feedback faults, deadline misses); drive faults, a lost
 // drive and the hardwired e-stop circuit need someone at the machine (see docs/safety.md).
 #include <fmt/core.h>
-#include <time.h>
 
 #include <atomic>
 #include <cmath>
-#include <csignal>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -24,6 +22,8 @@
 
 #include "apps/commands.hpp"
 #include "apps/config_path.hpp"
+#include "apps/experiment/closed_loop.hpp"
+#include "apps/experiment/machine.hpp"
 #include "apps/experiment/report.hpp"
 #include "apps/experiment/robot_config.hpp"
 #include "common/yaml_reader.hpp"
@@ -43,74 +43,62 @@ namespace {
 using safety::Fault;
 using safety::Reaction;
 
-// The drives a scenario runs against: a fresh simulation, or the one bus for every scenario.
+// The drives a scenario runs against, and the machine (the one control loop, apps/experiment/
+// machine.hpp) over them through a fault injector: a fresh simulation per scenario, or the
+// drives on a bus for every scenario (the loop then never stops between scenarios).
 class Backend {
  public:
   virtual ~Backend() = default;
-  virtual drivers::ActuatorSet& drives() = 0;
   virtual sim::SimActuatorSet* sim() { return nullptr; }
-  virtual void end_of_cycle() = 0;  // advance the plant / wait for the next period
-  virtual bool deadline_missed() const { return false; }
-  virtual int consecutive_misses() const { return 0; }
+  Machine& machine() { return *machine_; }
+  safety::FaultInjector& io() { return *io_; }
+
+ protected:
+  void make_machine(const RobotConfig& cfg, drivers::ActuatorSet& drives, Pacing pacing,
+                    sim::Plant* plant) {
+    io_ = std::make_unique<safety::FaultInjector>(drives);
+    MachineOptions mo;
+    mo.pacing = pacing;
+    mo.on_realtime = [](const control::RealtimeStatus& rt) {
+      for (const auto& w : rt.warnings) fmt::print(stderr, "dualv selftest: {}\n", w);
+    };
+    machine_ = std::make_unique<Machine>(cfg, *io_, mo, plant);
+    machine_->start();
+  }
+  std::unique_ptr<safety::FaultInjector> io_;
+  std::unique_ptr<Machine> machine_;
 };
 
 class SimBackend final : public Backend {
  public:
   explicit SimBackend(const RobotConfig& cfg)
-      : period_(cfg.period()),
-        plant_(cfg.model, cfg.plant),
-        sim_((plant_.reset(cfg.model.home), plant_)) {}
-  drivers::ActuatorSet& drives() override { return sim_; }
+      : plant_(cfg.model, cfg.plant), sim_((plant_.reset(cfg.model.home), plant_)) {
+    make_machine(cfg, sim_, Pacing::kSimulated, &plant_);
+  }
+  ~SimBackend() override { machine_.reset(); }
   sim::SimActuatorSet* sim() override { return &sim_; }
-  void end_of_cycle() override { plant_.advance(period_); }
 
  private:
-  double period_;
   sim::Plant plant_;
   sim::SimActuatorSet sim_;
 };
 
+// The drives on a bus, paced by the clock in this thread: a scenario injects its fault
+// between two cycles.
 class CanBackend final : public Backend {
  public:
-  CanBackend(const RobotConfig& cfg, const std::string& iface) : period_ns_(cfg.loop.period_ns) {
+  CanBackend(const RobotConfig& cfg, const std::string& iface) {
     drivers::CanConfig can = drivers::load_can_config(YamlReader::load_file(cfg.path)["can"]);
     drivers_ = drivers::open_canopen_drives(
         can, {iface, cfg.period(), [](const std::string& s) { fmt::print("  {}\n", s); }});
-    clock_gettime(CLOCK_MONOTONIC, &next_);
+    make_machine(cfg, drivers_->actuators(), Pacing::kCallerThread, nullptr);
   }
-  drivers::ActuatorSet& drives() override { return drivers_->actuators(); }
+  ~CanBackend() override { machine_.reset(); }
   const drivers::CanopenActuatorSet& canopen() const { return drivers_->actuators(); }
-  void end_of_cycle() override {
-    next_.tv_nsec += period_ns_;
-    while (next_.tv_nsec >= 1'000'000'000) {
-      next_.tv_nsec -= 1'000'000'000;
-      ++next_.tv_sec;
-    }
-    timespec now{};
-    clock_gettime(CLOCK_MONOTONIC, &now);
-    const bool late =
-        now.tv_sec > next_.tv_sec || (now.tv_sec == next_.tv_sec && now.tv_nsec > next_.tv_nsec);
-    missed_ = late;
-    consecutive_ = late ? consecutive_ + 1 : 0;
-    if (late) {
-      next_ = now;  // skip, never burst (periodic_executive.hpp's policy)
-    } else {
-      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next_, nullptr);
-    }
-  }
-  bool deadline_missed() const override { return missed_; }
-  int consecutive_misses() const override { return consecutive_; }
 
  private:
-  std::int64_t period_ns_;
   std::unique_ptr<drivers::CanopenDrives> drivers_;
-  timespec next_{};
-  bool missed_ = false;
-  int consecutive_ = 0;
 };
-
-// The scenario running now, for SIGINT (a signal e-stop request; a second SIGINT kills).
-std::atomic<control::ControlCycle*> g_signal_target{nullptr};
 
 struct Scenario {
   const char* name;
@@ -130,33 +118,38 @@ struct Outcome {
   std::string note;
 };
 
-// One scenario: a control cycle with the safety filter over a backend, plus injection hooks.
+// One scenario: the paper program on the backend's machine, plus injection hooks. On a
+// backend that ran a scenario before (the bus), the last stop is reset first and every
+// injection and test limit is taken back.
 class Run {
  public:
   Run(const RobotConfig& cfg, const trajectory::Program& program, Backend& backend)
-      : cfg_(cfg),
-        backend_(backend),
-        io_(backend.drives()),
-        cycle_(cfg.model, cfg.control, {cfg.period(), 2.0, cfg.safety}) {
-    cycle_.start(io_, program, cfg.trajectory.rebase);
-    g_signal_target.store(&cycle_);
+      : cfg_(cfg), backend_(backend), loop_(backend.machine().executor()) {
+    backend.io().clear();
+    loop_.inject_deadline_misses(0);
+    loop_.safety().set_limits_for_test(cfg.safety);
+    if (loop_.snapshot().mode == control::LoopMode::kSafeStop) reset();
+    loop_.cycle().set_command_hook(misbehave_hook, this);
+    id_ = backend.machine().begin(program, paper_variants().front(), 0.2);
   }
-  ~Run() { g_signal_target.store(nullptr); }
+  ~Run() {
+    loop_.cycle().set_command_hook(nullptr, nullptr);
+    loop_.inject_deadline_misses(0);
+  }
   Run(const Run&) = delete;
   Run& operator=(const Run&) = delete;
   control::CycleStatus step() {
-    cycle_.note_timing(forced_misses_ > 0 || backend_.deadline_missed(),
-                       forced_misses_ > 0 ? forced_misses_ : backend_.consecutive_misses());
-    const control::CycleStatus s = cycle_.step(io_, rec_);
-    backend_.end_of_cycle();
+    loop_.inject_deadline_misses(forced_misses_);
+    backend_.machine().pump();
     safety::FaultEvent e;
-    while (cycle_.safety().log().try_pop(e)) events_.push_back(e);
-    return s;
+    while (loop_.safety().log().try_pop(e)) events_.push_back(e);
+    return rec().status;
   }
-  control::ControlCycle& cycle() { return cycle_; }
-  safety::FaultInjector& io() { return io_; }
+  control::Executor& loop() { return loop_; }
+  control::ControlCycle& cycle() { return loop_.cycle(); }
+  safety::FaultInjector& io() { return backend_.io(); }
   Backend& backend() { return backend_; }
-  const control::CycleRecord& rec() const { return rec_; }
+  const control::CycleRecord& rec() const { return loop_.record(); }
   const std::vector<safety::FaultEvent>& events() const { return events_; }
   int forced_misses_ = 0;
   bool hook_nan_ = false;
@@ -164,21 +157,32 @@ class Run {
   bool hook_step_ = false;
   // A limit test: the configuration's limits with one changed (`change`) from now on.
   void test_limit(const std::function<void(safety::SafetyConfig&)>& change) {
-    safety::SafetyConfig c = cycle_.safety().config();
+    safety::SafetyConfig c = cycle().safety().config();
     change(c);
-    cycle_.safety().set_limits_for_test(c);
+    cycle().safety().set_limits_for_test(c);
   }
 
  private:
+  static void misbehave_hook(void* ctx, std::int64_t cycle, drivers::ActuatorCommand& c) noexcept;
+  // The previous scenario's stop, reset once its causes are gone (a few cycles for the
+  // injections taken back above to show).
+  void reset() {
+    for (int k = 0; k < 20; ++k) step();
+    loop_.submit(control::LoopCommand::Kind::kReset);
+    for (int k = 0; k < cfg_.safety.watchdogs.reset_fault_cycles + 200; ++k) {
+      step();
+      if (loop_.snapshot().mode == control::LoopMode::kIdle) break;
+    }
+    events_.clear();
+  }
   const RobotConfig& cfg_;
   Backend& backend_;
-  safety::FaultInjector io_;
-  control::ControlCycle cycle_;
-  control::CycleRecord rec_;
+  control::Executor& loop_;
+  std::uint64_t id_ = 0;
   std::vector<safety::FaultEvent> events_;
 };
 
-void misbehave(void* ctx, std::int64_t, drivers::ActuatorCommand& c) noexcept {
+void Run::misbehave_hook(void* ctx, std::int64_t, drivers::ActuatorCommand& c) noexcept {
   auto* run = static_cast<Run*>(ctx);
   for (int i = 0; i < c.n; ++i) {
     if (run->hook_big_) c.torque[i] = (i % 2 ? -1.0 : 1.0) * 10.0 * 60.0;  // 10x the default limit
@@ -196,11 +200,11 @@ std::vector<Scenario> scenarios(const RobotConfig& cfg) {
   return {
       {"e-stop request (LCM)", Reaction::kSs1, Fault::kEstopLcm, false,
        [](Run& r, int k) {
-         if (k == 0) r.cycle().safety().request_stop(safety::StopSource::kLcm);
+         if (k == 0) r.loop().request_estop(safety::StopSource::kLcm);
        }},
       {"e-stop request (signal)", Reaction::kSs1, Fault::kEstopSignal, false,
        [](Run& r, int k) {
-         if (k == 0) r.cycle().safety().request_stop(safety::StopSource::kSignal);
+         if (k == 0) r.loop().request_estop(safety::StopSource::kSignal);
        }},
       {"e-stop circuit (drive input)", Reaction::kSto, Fault::kEstopInput, true,
        [](Run& r, int k) {
@@ -280,10 +284,10 @@ Outcome run_scenario(const RobotConfig& cfg, const trajectory::Program& program,
                      const Scenario& sc, double inject_at, std::vector<safety::FaultEvent>& log) {
   Outcome o;
   Run run(cfg, program, backend);
-  run.cycle().set_command_hook(misbehave, &run);
   // Into the program, moving.
   for (int k = 0; k < 60000; ++k) {
-    if (run.step() != control::CycleStatus::kOk) {
+    if (run.step() != control::CycleStatus::kOk ||
+        run.loop().mode() != control::LoopMode::kProgram) {
       o.note = fmt::format("stopped before the injection: {}",
                            run.events().empty() ? "?" : safety::describe(run.events().back()));
       log.insert(log.end(), run.events().begin(), run.events().end());
@@ -367,7 +371,7 @@ Outcome reset_scenario(const RobotConfig& cfg, const trajectory::Program& progra
     run.step();
   backend.sim()->set_stop_input(true);
   for (int k = 0; k < 100; ++k) run.step();
-  run.cycle().safety().request_reset();
+  run.loop().submit(control::LoopCommand::Kind::kReset);
   for (int k = 0; k < cfg.safety.watchdogs.reset_fault_cycles + 2; ++k) run.step();
   auto has = [&](safety::EventKind kind) {
     for (const auto& e : run.events())
@@ -377,7 +381,7 @@ Outcome reset_scenario(const RobotConfig& cfg, const trajectory::Program& progra
   const bool refused =
       has(safety::EventKind::kResetRefused) && !has(safety::EventKind::kResetAccepted);
   backend.sim()->set_stop_input(false);
-  run.cycle().safety().request_reset();
+  run.loop().submit(control::LoopCommand::Kind::kReset);
   run.step();
   const bool accepted = has(safety::EventKind::kResetAccepted);
   run.io().reset_max_torque();
@@ -575,10 +579,7 @@ void register_selftest_command(CLI::App& app) {
       ->check(CLI::IsMember({"sto", "ss1"}))
       ->capture_default_str();
   cmd->callback([] {
-    std::signal(SIGINT, [](int) {
-      if (auto* c = g_signal_target.load()) c->safety().request_stop(safety::StopSource::kSignal);
-      std::signal(SIGINT, SIG_DFL);
-    });
+    install_stop_signal_handlers();  // SIGINT: an e-stop request of the running loop
     exit_code() = selftest(args);
   });
 }

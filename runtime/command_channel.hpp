@@ -76,6 +76,8 @@ class CommandChannel {
   std::uint64_t setpoints_refused() const noexcept { return sp_refused_.load(); }
   std::uint64_t setpoints_dropped() const noexcept { return setpoints_.dropped(); }
   std::uint64_t estop_requests() const noexcept { return estops_.load(std::memory_order_acquire); }
+  // The same count for a watcher on another thread (control::Executor::watch_estops).
+  const std::atomic<std::uint64_t>& estop_counter() const noexcept { return estops_; }
   std::uint64_t accepted() const noexcept { return accepted_.load(); }
   std::uint64_t refused() const noexcept { return refused_.load(); }
   std::uint64_t dropped() const noexcept { return queue_.dropped(); }

@@ -49,6 +49,12 @@ class FaultInjector final : public drivers::ActuatorSet {
     frozen_[static_cast<std::size_t>(i)] = frozen;
   }
   void corrupt_position(int i, bool nan) noexcept { nan_[static_cast<std::size_t>(i)] = nan; }
+  // Every injection off (offsets back to zero: the next read() shows the true positions).
+  void clear() noexcept {
+    offset_.fill(0.0);
+    frozen_.fill(false);
+    nan_.fill(false);
+  }
 
   double max_torque() const noexcept { return max_torque_; }
   void reset_max_torque() noexcept { max_torque_ = 0.0; }

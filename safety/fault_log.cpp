@@ -97,4 +97,12 @@ void FaultLogWriter::write(const FaultEvent& e) {
   std::fprintf(file_, "%s\n", line.c_str());
 }
 
+std::string describe_faults(FaultSet faults) {
+  std::string causes;
+  for (int f = 0; f < kFaultCount; ++f)
+    if (faults & bit(static_cast<Fault>(f)))
+      causes += std::string(causes.empty() ? "" : ", ") + to_string(static_cast<Fault>(f));
+  return causes;
+}
+
 }  // namespace dualv::safety

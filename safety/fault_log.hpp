@@ -45,6 +45,8 @@ static_assert(std::is_trivially_copyable_v<FaultEvent>);
 std::string to_json(const FaultEvent& e);
 // A short human-readable description, e.g. "tracking error 0.012 > 0.005 (SS1)".
 std::string describe(const FaultEvent& e);
+// The causes in `faults`, comma-separated ("e-stop (LCM), drive fault"); empty when none.
+std::string describe_faults(FaultSet faults);
 
 class FaultLog {
  public:

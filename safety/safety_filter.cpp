@@ -166,6 +166,11 @@ void SafetyFilter::disarm() noexcept {
 void SafetyFilter::monitor(const drivers::ActuatorFeedback& fb, const SafetyInput& in,
                            Detection& d) noexcept {
   const SafetyConfig& c = config_;
+  // Idle (kDisabled: 0 N m, drives disabled) the loop keeps running (control/loop/executor.hpp):
+  // drives, bus, e-stop inputs, feedback and timing are watched, but the motion limits (joint
+  // and plate velocity, workspace, singularity, tracking) apply only while the motors may
+  // move the robot: a robot pushed by hand while disabled is not a fault of the controller.
+  const bool powered = report_.state != SafetyState::kDisabled;
   // --- Drives and bus ----------------------------------------------------------------
   if (in.io_status == drivers::IoStatus::kBusError) d.add(Fault::kBusError);
   if (fb.n != n_) d.add(Fault::kInvalidState, -1, fb.n, n_);
@@ -206,7 +211,7 @@ void SafetyFilter::monitor(const drivers::ActuatorFeedback& fb, const SafetyInpu
         d.add(Fault::kStaleFeedback, i, since_fresh_[k], c.watchdogs.stale_feedback_cycles,
               c.watchdogs.stale_feedback_cycles - 1);
     }
-    if (std::abs(q_dot_[k]) > c.max_joint_velocity)
+    if (powered && std::abs(q_dot_[k]) > c.max_joint_velocity)
       d.add(Fault::kJointVelocity, i, q_dot_[k], c.max_joint_velocity);
   }
 
@@ -219,7 +224,9 @@ void SafetyFilter::monitor(const drivers::ActuatorFeedback& fb, const SafetyInpu
 
   // --- Plate: workspace, singularity, plate velocity, tracking error ----------------
   const bool pose_ok = in.pose_valid && in.X.allFinite();
-  if (!pose_ok) {
+  if (!powered) {
+    // idle: no motion limits (above)
+  } else if (!pose_ok) {
     d.add(Fault::kInvalidState);
   } else {
     const model::Pose& X = in.X;

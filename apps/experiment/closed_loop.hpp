@@ -72,6 +72,9 @@ struct RunResult {
   double wall_time = 0.0;                // [s]
   bool ok = true;
   std::string failure;  // why the run stopped early
+  // The loop cycle that took the reference (cycle numbers in the fault log and telemetry
+  // count from the loop's start; RunOptions::before_cycle's from this one).
+  std::int64_t first_cycle = -1;
   StreamStats stream;
 };
 
@@ -98,22 +101,23 @@ struct RunOptions {
   double max_stream_time = 3600.0;
   std::int64_t max_stream_rows = 120'000;
   // Tests and simulations only: called before every cycle with the loop's cycle number
-  // (e.g. to publish a setpoint in simulated time). Never set on a real-time run.
+  // (e.g. to publish a setpoint in simulated time), on stepped (simulated-time) machines.
   std::function<void(std::int64_t cycle)> before_cycle;
 };
 
-// Runs `program` (rebased onto the simulated robot's home pose) with the variant's timing
-// law and controller switches against the in-process simulation of config.plant.
+// One program, or one stream, on a machine of its own (apps/experiment/machine.hpp: the one
+// control loop started, the reference followed, the loop shut down). A process that runs
+// several (dualv run's variants, the service) keeps one Machine instead.
+//
+// `program` (rebased onto the simulated robot's actual pose) with the variant's timing law
+// and controller switches against the in-process simulation of config.plant.
 RunResult run_in_process(const RobotConfig& config, const trajectory::Program& program,
                          const Variant& variant, const RunOptions& options = {});
 
 // The same program against any drives (e.g. CANopen drives on a SocketCAN interface),
-// always paced by the monotonic clock. `after_cycle`, when given, runs after every write
-// (the in-process plant advances there) and returns the internal torque it observes (NaN
-// when unknown).
+// always paced by the monotonic clock.
 RunResult run_program(const RobotConfig& config, const trajectory::Program& program,
-                      const Variant& variant, drivers::ActuatorSet& io, const RunOptions& options,
-                      const std::function<double()>& after_cycle = {});
+                      const Variant& variant, drivers::ActuatorSet& io, const RunOptions& options);
 
 // A streaming run (`dualv start stream`): the robot follows the signed pose setpoints that
 // options.commands receives (runtime/command_channel.hpp), through the streaming reference
@@ -122,15 +126,16 @@ RunResult run_program(const RobotConfig& config, const trajectory::Program& prog
 // rest, held for options.settle_time); a stream silent for
 // safety.watchdogs.command_stream_timeout stops it (SS1, kCommandStreamStale). Needs
 // options.commands (std::invalid_argument otherwise).
-RunResult run_stream(const RobotConfig& config, drivers::ActuatorSet& io, const RunOptions& options,
-                     const std::function<double()>& after_cycle = {});
+RunResult run_stream(const RobotConfig& config, drivers::ActuatorSet& io,
+                     const RunOptions& options);
 // The same against the in-process simulation.
 RunResult run_stream_in_process(const RobotConfig& config, const RunOptions& options);
 
-// SIGINT / SIGTERM request a safety stop (SS1) of the run in progress; a second signal, or a
-// signal while no run is active, ends the process at once, unless `exit_when_idle`: then a
-// signal while no run is active only sets stop_signal_received() (the --serve loop polls it
-// and ends cleanly, telling systemd STOPPING=1).
+// SIGINT / SIGTERM latch an e-stop (StopSource::kSignal: SS1 of a moving robot) in the control
+// loop of the running Machine and set stop_signal_received(), on which the supervisors end;
+// a second signal, or a signal while no loop runs, ends the process at once, unless
+// `exit_when_idle`: then it only sets the flag (the --serve supervisor polls it and ends
+// cleanly, telling systemd STOPPING=1). Defined in machine.cpp.
 void install_stop_signal_handlers(bool exit_when_idle = false);
 // True once SIGINT or SIGTERM arrived (during a run or, with exit_when_idle, between runs).
 bool stop_signal_received() noexcept;

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <stdexcept>
 
 #include "control/model/kinematics.hpp"
@@ -18,6 +19,8 @@ const char* to_string(CyclePhase p) noexcept {
       return "holding";
     case CyclePhase::kStopped:
       return "stopped";
+    case CyclePhase::kIdle:
+      return "idle";
   }
   return "unknown";
 }
@@ -36,6 +39,8 @@ const char* to_string(CycleStatus s) noexcept {
       return "enable timeout";
     case CycleStatus::kSafetyStop:
       return "safety stop";
+    case CycleStatus::kNotActivated:
+      return "not activated";
   }
   return "unknown";
 }
@@ -46,12 +51,14 @@ ControlCycle::ControlCycle(const model::Model& model, const ControlSetup& setup,
       config_(config),
       estimator_(model, setup.estimator, config.period),
       controller_(model, setup.controller),
+      seed_data_(model),
       q_meas_(model::JointVector::Zero(model.n)),
       safety_(model, config.safety, config.period),
       guard_(safety_) {}
 
 double ControlCycle::program_duration() const noexcept {
-  return sequencer_ ? sequencer_->duration() : 0.0;
+  const trajectory::Sequencer* s = sequencer();
+  return s ? s->duration() : 0.0;
 }
 
 void ControlCycle::read_pose(drivers::ActuatorSet& io, drivers::ActuatorFeedback& fb,
@@ -73,18 +80,43 @@ void ControlCycle::read_pose(drivers::ActuatorSet& io, drivers::ActuatorFeedback
         model::to_string(fk.status), fk.residual));
 }
 
-void ControlCycle::arm(const drivers::ActuatorFeedback& fb, const model::JointVector& q,
-                       const model::Pose& X) {
-  const safety::ArmStatus armed = safety_.arm(
-      fb, static_cast<std::int64_t>(static_cast<double>(cycle_) * config_.period * 1e9));
-  if (armed != safety::ArmStatus::kOk)
-    throw std::runtime_error(fmt::format("cannot start: safety: {}", safety::to_string(armed)));
-  estimator_.reset(q, X);
-  phase_ = CyclePhase::kEnabling;
-  cycle_ = 0;
+safety::ArmStatus ControlCycle::activate(PreparedReference& ref,
+                                         const drivers::ActuatorFeedback& fb) noexcept {
+  const bool was_operational = safety_.state() == safety::SafetyState::kOperational;
+  if (!was_operational) {
+    const safety::ArmStatus armed = safety_.arm(
+        fb, static_cast<std::int64_t>(static_cast<double>(cycle_) * config_.period * 1e9));
+    if (armed != safety::ArmStatus::kOk) return armed;
+  }
+  bool all_enabled = was_operational;
+  for (int i = 0; i < model_->n; ++i)
+    all_enabled = all_enabled && fb.drive[i].state == drivers::DriveState::kEnabled;
+  controller_.config().projection = ref.projection;
+  controller_.config().feedforward = ref.feedforward;
+  active_ = &ref;
+  phase_ = all_enabled ? CyclePhase::kRunning : CyclePhase::kEnabling;
   enabling_cycles_ = 0;
   t_ = 0.0;
   stream_fresh_ = false;
+  return safety::ArmStatus::kOk;
+}
+
+void ControlCycle::deactivate() noexcept {
+  active_ = nullptr;
+  phase_ = CyclePhase::kIdle;
+  safety_.disarm();
+}
+
+void ControlCycle::activate_owned(std::unique_ptr<PreparedReference> ref,
+                                  const drivers::ActuatorFeedback& fb, const model::JointVector& q,
+                                  const model::Pose& X) {
+  // activate() changes nothing when refused: the reference followed so far stays.
+  const safety::ArmStatus armed = activate(*ref, fb);
+  if (armed != safety::ArmStatus::kOk)
+    throw std::runtime_error(fmt::format("cannot start: safety: {}", safety::to_string(armed)));
+  owned_ = std::move(ref);
+  estimator_.reset(q, X);
+  seeded_ = true;
 }
 
 void ControlCycle::start(drivers::ActuatorSet& io, const trajectory::Program& program,
@@ -93,12 +125,7 @@ void ControlCycle::start(drivers::ActuatorSet& io, const trajectory::Program& pr
   model::JointVector q;
   model::Pose X;
   read_pose(io, fb, q, X);
-  // Arm the safety filter last: nothing above may leave it armed on a failed start.
-  std::optional<trajectory::Sequencer> sequencer;
-  sequencer.emplace(*model_, trajectory::rebase(program, X, rebase));
-  arm(fb, q, X);
-  stream_.reset();
-  sequencer_ = std::move(sequencer);
+  activate_owned(prepare_program(*model_, program, X, rebase), fb, q, X);
 }
 
 void ControlCycle::start_streaming(drivers::ActuatorSet& io,
@@ -108,23 +135,29 @@ void ControlCycle::start_streaming(drivers::ActuatorSet& io,
   model::JointVector q;
   model::Pose X;
   read_pose(io, fb, q, X);
-  std::optional<trajectory::StreamingReference> stream;
-  stream.emplace(*model_, limits, workspace, config_.period);
-  stream->reset(X);  // from the actual pose, at rest: starting a stream never moves the robot
-  arm(fb, q, X);
-  sequencer_.reset();
-  stream_ = std::move(stream);
+  activate_owned(prepare_stream(*model_, limits, workspace, config_.period, X), fb, q, X);
 }
 
 trajectory::TargetStatus ControlCycle::stream_setpoint(const model::Pose& X) noexcept {
-  if (!stream_ || phase_ == CyclePhase::kStopped) return trajectory::TargetStatus::kNotActive;
-  const trajectory::TargetStatus s = stream_->set_target(X);
+  if (!active_ || active_->kind != ReferenceKind::kStream || phase_ == CyclePhase::kStopped)
+    return trajectory::TargetStatus::kNotActive;
+  const trajectory::TargetStatus s = active_->stream->set_target(X);
   if (s == trajectory::TargetStatus::kAccepted) stream_fresh_ = true;
   return s;
 }
 
 void ControlCycle::end_stream() noexcept {
-  if (stream_) stream_->hold();
+  if (active_ && active_->kind == ReferenceKind::kStream) active_->stream->hold();
+}
+
+bool ControlCycle::seed(const model::JointVector& q) noexcept {
+  for (int i = 0; i < model_->n; ++i)
+    if (!std::isfinite(q[i])) return false;
+  model::Pose X;
+  const model::FkResult fk = model::forward_kinematics(*model_, seed_data_, q, model_->home, X);
+  if (fk.status != model::Status::kOk) return false;
+  estimator_.reset(q, X);
+  return true;
 }
 
 CycleStatus ControlCycle::step(drivers::ActuatorSet& io, CycleRecord& rec) noexcept {
@@ -138,12 +171,23 @@ CycleStatus ControlCycle::step(drivers::ActuatorSet& io, CycleRecord& rec) noexc
   const drivers::IoStatus io_status = io.read(rec.feedback);
   for (int i = 0; i < n; ++i) q_meas_[i] = rec.feedback.drive[i].position;
   if (io_status == drivers::IoStatus::kBusError) rec.status = CycleStatus::kIoError;
-  if (estimator_.update(q_meas_) != EstimateStatus::kOk && rec.status == CycleStatus::kOk)
+  // The first cycles after start-up find the pose from home (the estimator tracks it after).
+  if (!seeded_ && io_status != drivers::IoStatus::kNotReady) seeded_ = seed(q_meas_);
+  if ((!seeded_ || estimator_.update(q_meas_) != EstimateStatus::kOk) &&
+      rec.status == CycleStatus::kOk)
     rec.status = CycleStatus::kEstimateFailed;
   rec.est = estimator_.estimate();
+  if (!seeded_) rec.est.status = EstimateStatus::kFkFailed;
 
-  if (!has_reference()) {
-    rec.status = CycleStatus::kControlFailed;
+  if (!active_) {  // idle: watch and write 0 N m, disable voltage (the filter's kDisabled)
+    rec.phase = CyclePhase::kIdle;
+    rec.t = 0.0;
+    rec.ref.segment = 0;
+    rec.ref.cartesian = trajectory::CartesianSample{};
+    rec.ref.cartesian.X = rec.est.X;
+    rec.ref.phase = trajectory::PhaseSample{};
+    rec.control.tau.setZero(n);
+    rec.control.tau_internal.setZero(n);
     finish(io, rec, io_status);
     return rec.status;
   }
@@ -166,9 +210,10 @@ CycleStatus ControlCycle::step(drivers::ActuatorSet& io, CycleRecord& rec) noexc
   rec.phase = phase_;
   rec.t = t_;
   const bool moving = phase_ == CyclePhase::kRunning || phase_ == CyclePhase::kHolding;
+  trajectory::StreamingReference* stream = active_->stream ? &*active_->stream : nullptr;
   const trajectory::SampleStatus ss =
-      stream_ ? stream_->step(moving, rec.ref) : sequencer_->sample(t_, rec.ref);
-  if (stream_ && phase_ == CyclePhase::kRunning && !stream_->active())
+      stream ? stream->step(moving, rec.ref) : active_->sequencer->sample(t_, rec.ref);
+  if (stream && phase_ == CyclePhase::kRunning && !stream->active())
     phase_ = CyclePhase::kHolding;
   if (phase_ == CyclePhase::kRunning && ss == trajectory::SampleStatus::kFinished)
     phase_ = CyclePhase::kHolding;
@@ -197,20 +242,26 @@ CycleStatus ControlCycle::finish(drivers::ActuatorSet& io, CycleRecord& rec,
   in.pose_valid = rec.est.status == EstimateStatus::kOk;
   in.X = rec.est.X;
   in.tracking =
-      has_reference() && (phase_ == CyclePhase::kRunning || phase_ == CyclePhase::kHolding);
+      active_ != nullptr && (phase_ == CyclePhase::kRunning || phase_ == CyclePhase::kHolding);
   in.X_d = rec.ref.cartesian.X;
   in.deadline_missed = deadline_missed_;
   in.consecutive_deadline_misses = consecutive_misses_;
   // The watchdog runs while a stream is followed (not while the drives enable: the sender
   // cannot know when that ends); end_stream() turns it off.
-  in.streaming = streaming_ || (stream_ && stream_->active() && phase_ == CyclePhase::kRunning);
+  in.streaming = streaming_ || (active_ && active_->kind == ReferenceKind::kStream &&
+                                active_->stream->active() && phase_ == CyclePhase::kRunning);
   in.stream_fresh = stream_fresh_;
   stream_fresh_ = false;
   const safety::SafetyState st = safety_.update(rec.feedback, in, rec.command);
-  if (st != safety::SafetyState::kOperational) {
-    if (has_reference()) phase_ = CyclePhase::kStopped;
+  // A reference ends in kStopped when the filter stops; idle, only a stop (SS1 / STO) is a
+  // safety stop: kDisabled is idle's normal state.
+  const bool stopping = st == safety::SafetyState::kSs1 || st == safety::SafetyState::kSto;
+  if (active_ && st != safety::SafetyState::kOperational) phase_ = CyclePhase::kStopped;
+  if (active_ || stopping) {
     rec.phase = phase_;
-    if (rec.status == CycleStatus::kOk) rec.status = CycleStatus::kSafetyStop;
+    if (rec.status == CycleStatus::kOk && (active_ ? st != safety::SafetyState::kOperational
+                                                   : stopping))
+      rec.status = CycleStatus::kSafetyStop;
   }
   rec.safety = safety_.report();
   guard_.write(io, rec.command);

@@ -52,6 +52,13 @@ ExecutiveConfig read_executive_config(YamlReader& loop) {
     loop.require(c.cpu >= -1, "cpu", "must be -1 (no pinning) or a CPU number", c.cpu);
   }
   if (loop.has("lock_memory")) c.lock_memory = loop.boolean("lock_memory");
+  if (loop.has("idle")) {
+    const std::string idle = loop.string("idle");
+    loop.require(idle == "disabled" || idle == "hold", "idle",
+                 "must be disabled (drives disabled at 0 N m) or hold (hold the final pose), got " +
+                     idle);
+    c.idle_hold = idle == "hold";
+  }
   if (loop.has("stats_resolution_us"))
     c.stats_resolution_ns = std::max<std::int64_t>(
         1, std::llround(loop.in_range("stats_resolution_us", 0.001, 1000.0) * 1e3));
@@ -152,53 +159,75 @@ const RealtimeStatus& PeriodicExecutive::prepare_realtime() {
   return rt_;
 }
 
-RunReport PeriodicExecutive::run_impl(Trampoline fn, void* ctx, std::int64_t max_cycles) {
+void PeriodicExecutive::release_realtime() noexcept {
+  if (!rt_.sched_fifo) return;
+  sched_param sp{};
+  sp.sched_priority = 0;
+  pthread_setschedparam(pthread_self(), SCHED_OTHER, &sp);
+  rt_.sched_fifo = false;
+  rt_.attempted = false;
+}
+
+void PeriodicExecutive::begin() {
   prepare_realtime();
   stats_.reset();
+  report_ = RunReport{};
+  info_ = CycleInfo{};
+  info_.period_ns = config_.period_ns;
+  info_.stats = &stats_;
+  info_.cycle = -1;
+  release_ = clock_.now_ns();
+  skipped_ = 0;
+}
 
-  RunReport report;
-  LoopClock* const work = work_clock_ != nullptr ? work_clock_ : &clock_;
-  const bool separate_work_clock = work != &clock_;
+const CycleInfo& PeriodicExecutive::next() noexcept {
+  clock_.sleep_until_ns(release_);
+  const std::int64_t wake = clock_.now_ns();
+  ++info_.cycle;
+  info_.release_ns = release_;
+  info_.wake_ns = wake;
+  info_.lateness_ns = wake - release_;
+  info_.skipped_releases = skipped_;
+  info_.consecutive_misses = stats_.consecutive_misses();
+  work_start_ = work_clock_ != nullptr ? work_clock_->now_ns() : wake;
+  return info_;
+}
+
+void PeriodicExecutive::done() noexcept {
+  const std::int64_t end = clock_.now_ns();
+  const std::int64_t work_end = work_clock_ != nullptr ? work_clock_->now_ns() : end;
+  stats_.record(info_.lateness_ns, work_end - work_start_, end - release_);
+  ++report_.cycles;
+  // Next release on the original grid; skip the ones this cycle ran past.
   const std::int64_t period = config_.period_ns;
-  CycleInfo info;
-  info.period_ns = period;
-  info.stats = &stats_;
+  release_ += period;
+  skipped_ = 0;
+  if (end > release_) {
+    skipped_ = (end - release_ + period - 1) / period;
+    release_ += skipped_ * period;
+    stats_.add_overruns(skipped_);
+  }
+}
 
-  std::int64_t release = clock_.now_ns();
-  std::int64_t skipped = 0;
+RunReport PeriodicExecutive::end() noexcept {
+  report_.stats = stats_.summary();
+  return report_;
+}
+
+RunReport PeriodicExecutive::run_impl(Trampoline fn, void* ctx, std::int64_t max_cycles) {
+  begin();
+  bool stop_requested = false;
   for (std::int64_t cycle = 0; max_cycles <= 0 || cycle < max_cycles; ++cycle) {
     if (stop_.load(std::memory_order_relaxed)) {
-      report.stop_requested = true;
+      stop_requested = true;
       break;
     }
-    clock_.sleep_until_ns(release);
-    const std::int64_t wake = clock_.now_ns();
-    info.cycle = cycle;
-    info.release_ns = release;
-    info.wake_ns = wake;
-    info.lateness_ns = wake - release;
-    info.skipped_releases = skipped;
-    info.consecutive_misses = stats_.consecutive_misses();
-
-    const std::int64_t work_start = separate_work_clock ? work->now_ns() : wake;
-    const CycleResult result = fn(ctx, info);
-    const std::int64_t end = clock_.now_ns();
-    const std::int64_t work_end = separate_work_clock ? work->now_ns() : end;
-
-    stats_.record(info.lateness_ns, work_end - work_start, end - release);
-    ++report.cycles;
-
-    // Next release on the original grid; skip the ones this cycle ran past.
-    release += period;
-    skipped = 0;
-    if (end > release) {
-      skipped = (end - release + period - 1) / period;
-      release += skipped * period;
-      stats_.add_overruns(skipped);
-    }
+    const CycleResult result = fn(ctx, next());
+    done();
     if (result == CycleResult::kStop) break;
   }
-  report.stats = stats_.summary();
+  RunReport report = end();
+  report.stop_requested = stop_requested;
   // Consumed here rather than cleared at the start, so a stop requested while
   // the caller was still setting up (e.g. Ctrl-C) is not lost.
   stop_.store(false, std::memory_order_relaxed);

@@ -38,12 +38,16 @@ struct ExecutiveConfig {
   bool realtime = true;                // false: skip all of the above (sim clock, tests)
   std::int64_t stats_resolution_ns = 1'000;
   std::int64_t stats_range_ns = 20'000'000;
+  // `loop.idle`: what the loop does when nothing is followed (executor.hpp IdleMode):
+  // false = "disabled" (drives disabled at 0 N m), true = "hold" (after a normal end the final
+  // pose is held). Read here so the whole `loop:` section has one reader.
+  bool idle_hold = false;
 };
 
 // Reads a `loop:` map: rate_hz (required), deadline_fraction (0.05..1,
 // default 1), priority (0..99, default 80), cpu (-1.., default -1),
 // lock_memory (default true), stats_resolution_us (default 1),
-// stats_range_ms (default 20). Problems are recorded in the reader's sink
+// stats_range_ms (default 20), idle (disabled | hold, default disabled). Problems are recorded in the reader's sink
 // with their key paths; unknown keys are rejected.
 ExecutiveConfig read_executive_config(YamlReader& loop);
 
@@ -91,6 +95,9 @@ class PeriodicExecutive {
   // Idempotent; run() calls it when it has not been called. Allocates.
   const RealtimeStatus& prepare_realtime();
   const RealtimeStatus& realtime_status() const noexcept { return rt_; }
+  // Back to normal scheduling (SCHED_OTHER) for the calling thread, when prepare_realtime()
+  // obtained SCHED_FIFO for it: for a loop that ran in a thread which goes on with other work.
+  void release_realtime() noexcept;
 
   // Runs `fn(const CycleInfo&) noexcept -> CycleResult` every period until it
   // returns kStop, request_stop() is called, or max_cycles (> 0) cycles ran.
@@ -104,6 +111,14 @@ class PeriodicExecutive {
         [](void* ctx, const CycleInfo& info) noexcept { return (*static_cast<F*>(ctx))(info); },
         const_cast<void*>(static_cast<const void*>(&fn)), max_cycles);
   }
+
+  // The same loop in pull form, for code that keeps its own control flow between cycles
+  // (`dualv selftest`'s scenarios): begin(); then per cycle next() (sleeps until the release)
+  // ... work ... done(); finally end(). Same schedule, overrun policy and statistics as run().
+  void begin();
+  const CycleInfo& next() noexcept;
+  void done() noexcept;
+  RunReport end() noexcept;
 
   // Thread- and async-signal-safe: the loop ends after the current cycle. A
   // request made before run() starts makes it return before the first cycle.
@@ -121,6 +136,12 @@ class PeriodicExecutive {
   ExecutiveConfig config_;
   LoopClock& clock_;
   LoopClock* work_clock_;
+  // The cycle in progress (begin/next/done).
+  CycleInfo info_;
+  RunReport report_;
+  std::int64_t release_ = 0;
+  std::int64_t skipped_ = 0;
+  std::int64_t work_start_ = 0;
   CycleStats stats_;
   RealtimeStatus rt_;
   std::atomic<bool> stop_{false};
