@@ -52,6 +52,7 @@ struct BusParams {
 struct TrafficItem {
   const char* what = "";
   std::uint8_t frames = 0;
+  std::uint8_t bytes = 0;     // payload of one frame (FD: the DLC size)
   FrameBits bits{};           // worst case, one frame
   double min_interval_s = 0;  // 0 = cyclic
 };
@@ -69,40 +70,39 @@ constexpr std::uint8_t frames_for(std::uint8_t drives, std::uint8_t per_frame) n
 
 constexpr LayoutTraffic layout_traffic(BusLayout layout, const BusParams& p) noexcept {
   LayoutTraffic t;
-  t.add({"SYNC", 1, classic_frame_bits(p.sync_bytes), 0});
+  t.add({"SYNC", 1, p.sync_bytes, classic_frame_bits(p.sync_bytes), 0});
   switch (layout) {
     case BusLayout::kPerDrive:
-      t.add({"RPDO controlword + torque (4 B)", p.drives, classic_frame_bits(4), 0});
-      t.add({"TPDO statusword + position (6 B)", p.drives, classic_frame_bits(6), 0});
+      t.add({"RPDO controlword + torque", p.drives, 4, classic_frame_bits(4), 0});
+      t.add({"TPDO statusword + position", p.drives, 6, classic_frame_bits(6), 0});
       break;
     case BusLayout::kBroadcast: {
       // 4 torques per 8-byte frame; the last frame carries the rest.
       const std::uint8_t frames = frames_for(p.drives, 4);
-      const std::uint8_t last = static_cast<std::uint8_t>(p.drives - 4 * (frames - 1));
       if (frames > 1)
-        t.add({"RPDO torques (8 B)", static_cast<std::uint8_t>(frames - 1), classic_frame_bits(8),
-               0});
-      if (frames > 0)
-        t.add({"RPDO torques (broadcast)", 1,
-               classic_frame_bits(static_cast<std::uint8_t>(2 * last)), 0});
-      t.add({"TPDO position (4 B)", p.drives, classic_frame_bits(4), 0});
+        t.add({"RPDO torques", static_cast<std::uint8_t>(frames - 1), 8, classic_frame_bits(8), 0});
+      if (frames > 0) {
+        const auto bytes = static_cast<std::uint8_t>(2 * (p.drives - 4 * (frames - 1)));
+        t.add({"RPDO torques", 1, bytes, classic_frame_bits(bytes), 0});
+      }
+      t.add({"TPDO position", p.drives, 4, classic_frame_bits(4), 0});
+      t.add({"event TPDO statusword", p.drives, 2, classic_frame_bits(2), p.statusword_inhibit_s});
       t.add(
-          {"event TPDO statusword (2 B)", p.drives, classic_frame_bits(2), p.statusword_inhibit_s});
-      t.add({"event RPDO controlword (2 B)", p.drives, classic_frame_bits(2),
-             p.controlword_inhibit_s});
+          {"event RPDO controlword", p.drives, 2, classic_frame_bits(2), p.controlword_inhibit_s});
       break;
     }
     case BusLayout::kFd: {
       // 16 drives x 4 B per 64-byte frame.
       const std::uint8_t frames = frames_for(p.drives, 16);
-      const std::uint8_t last = static_cast<std::uint8_t>(p.drives - 16 * (frames - 1));
       if (frames > 1)
-        t.add({"FD RPDO controlwords + torques (64 B)", static_cast<std::uint8_t>(frames - 1),
+        t.add({"FD RPDO controlwords + torques", static_cast<std::uint8_t>(frames - 1), 64,
                fd_frame_bits(64), 0});
-      if (frames > 0)
-        t.add({"FD RPDO controlwords + torques", 1,
-               fd_frame_bits(static_cast<std::uint8_t>(4 * last)), 0});
-      t.add({"FD TPDO statusword + position (6 B)", p.drives, fd_frame_bits(6), 0});
+      if (frames > 0) {
+        const auto bytes =
+            fd_frame_bytes(static_cast<std::uint8_t>(4 * (p.drives - 16 * (frames - 1))));
+        t.add({"FD RPDO controlwords + torques", 1, bytes, fd_frame_bits(bytes), 0});
+      }
+      t.add({"FD TPDO statusword + position", p.drives, 6, fd_frame_bits(6), 0});
       break;
     }
   }
