@@ -191,8 +191,8 @@ TEST(CanFrameBits, ClassicWorstCaseBoundsEveryFrame) {
 }
 
 TEST(CanFrameBits, WorstCaseStuffingIsReachedAndNeverExceeded) {
-  // Every bit string of up to 18 bits: the most stuff bits is floor((L - 1) / 4).
-  for (int len = 1; len <= 18; ++len) {
+  // Every bit string of up to 16 bits: the most stuff bits is floor((L - 1) / 4).
+  for (int len = 1; len <= 16; ++len) {
     int most = 0;
     for (std::uint32_t v = 0; v < (1u << len); ++v) {
       Bits b;
