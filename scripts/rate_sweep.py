@@ -7,12 +7,16 @@ quantisation, friction, model mismatch) at each control rate, with two sets of g
 
   shipped  config/dualv.yaml's controller (kp, kd, velocity_cutoff_hz), tuned at 1 kHz (the
            paper gives no numbers: its gains were tuned by trial and error at 10 kHz).
-  scaled   the same closed loop in units of the sample period: kp ~ f^2, kd ~ f, velocity
-           filter cutoff ~ f (natural frequency ~ f, damping ratio and the phase lost to the
-           one-cycle delay unchanged), until one encoder count makes `max_count_torque` N m of
-           torque (5 torque quanta; kp <= 0.25 / 6.0e-6 ~ 41700 N m/rad, at ~2.44 kHz); above
-           that rate the gains stay there. The rigid-body simulation has no structural modes:
-           on the machine its first mode caps the bandwidth too.
+  scaled   the feedback bandwidth follows 1 / (effective delay), the delay being 1.5 cycles
+           (transport delay + zero-order hold) plus the drive's current-loop lag (fixed in
+           time): with s = d(1 kHz) / d(f), kp ~ s^2, kd ~ s and the velocity filter cutoff ~ s
+           (natural frequency ~ s, damping ratio kept, about the same phase margin against
+           the delay as the shipped gains at 1 kHz), until one encoder count makes
+           `max_count_torque` N m of torque (0.25 N m = 5 torque quanta; kp <= 41700 N m/rad);
+           above, the gains stay there. Scaling with the rate alone (kp ~ f^2) ignores the
+           current-loop lag: at 2 and 2.5 kHz the loop oscillates until the safety filter
+           stops it on the torque rate limit (--rules shipped,scaled,rate shows it). The rigid-body simulation has no
+           structural modes: on the machine its first mode caps the bandwidth too.
 
 Each run is `dualv run --rate HZ --variant retimed -c CFG -o DIR --no-plots` with CFG written to a
 temporary folder. Torque noise: RMS over the shapes and the four motors of the command minus
@@ -62,8 +66,12 @@ def gains(cfg, rate, rule, max_count_torque):
     lag = cl.get("time_constant", 0.0) if cl.get("enabled", True) else 0.0
     count = 2.0 * math.pi / cfg["plant"]["encoder"]["counts_per_revolution"]
     kp_cap = max_count_torque / count
-    # The shipped gains are the 1 kHz point of the rule: bandwidth ~ 1 / effective delay.
-    s = effective_delay(1000.0, lag) / effective_delay(rate, lag)
+    # The shipped gains are the 1 kHz point of the rule: bandwidth ~ 1 / effective delay
+    # ("scaled"), or ~ the rate alone ("rate", for comparison: ignores the current loop).
+    if rule == "rate":
+        s = rate / 1000.0
+    else:
+        s = effective_delay(1000.0, lag) / effective_delay(rate, lag)
     s = min(s, math.sqrt(kp_cap / kp))
     return kp * s * s, kd * s, fc * s
 
@@ -136,6 +144,8 @@ def main():
     ap.add_argument("--program", default="")
     ap.add_argument("--out", default="out/rate-sweep")
     ap.add_argument("--rates", default=",".join(map(str, RATES)))
+    ap.add_argument("--rules", default="shipped,scaled",
+                    help="gain rules to run: shipped, scaled, rate (kp ~ f^2, for comparison)")
     ap.add_argument("--max-count-torque", type=float, default=0.25,
                     help="scaled gains: torque of one encoder count at most [N m]")
     args = ap.parse_args()
@@ -143,7 +153,7 @@ def main():
     rates = [int(r) for r in args.rates.split(",")]
     results = []
     with tempfile.TemporaryDirectory() as tmp:
-        for rule in ("shipped", "scaled"):
+        for rule in args.rules.split(","):
             for rate in rates:
                 r = run_one(args.dualv, args.config, rate, rule, tmp, args)
                 results.append(r)
@@ -179,8 +189,8 @@ def main():
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
-    styles = {"shipped": "-", "scaled": "--"}
-    for rule in ("shipped", "scaled"):
+    styles = {"shipped": "-", "scaled": "--", "rate": ":"}
+    for rule in args.rules.split(","):
         rs = [r for r in results if r["rule"] == rule and r["ok"] and "all shapes" in r]
         x = [r["rate"] / 1000 for r in rs]
         for c in SHAPES + ["program"]:
