@@ -216,6 +216,24 @@ TEST(CanFrameBits, WorstCaseStuffingIsReachedAndNeverExceeded) {
   }
 }
 
+TEST(CanFrameBits, FdFrameByHand) {
+  // FD base frame, id 078h, no data, CRC sequence all 0. Dynamic part (stuff bits marked ^):
+  // SOF 0 | id 0000^1 1111^0 000 | RRS 0^1 | IDE 0 FDF 1 res 0 BRS 1 | ESI 0 DLC 0000^1:
+  // 3 stuff bits before the bit-rate switch, 1 after. CRC field: fixed stuff bit 0 (the
+  // complement of the 1 before), stuff count 4 -> Gray 110 + even parity 0, fixed 1, then the
+  // 17 CRC bits with a fixed stuff bit after every 4th coded bit: 27 bits.
+  const BuiltFrame f = fd_frame(0x078, {}, 0);
+  EXPECT_EQ(f.wire.substr(0, 26), "00000111110000010101000001");
+  EXPECT_EQ(f.wire.substr(26, 27), "011001000010000100001000010");
+  EXPECT_EQ(f.dynamic_stuff, 4);
+  // Nominal: 17 + 3 stuff + 13 tail = 33; data: ESI + DLC 5 + 1 stuff + 27 = 33.
+  EXPECT_EQ(f.nominal, 33u);
+  EXPECT_EQ(f.data, 33u);
+  EXPECT_EQ(f.crc_field, 27u);
+  EXPECT_LE(f.nominal, fd_frame_bits(0).nominal);
+  EXPECT_LE(f.nominal + f.data, fd_frame_bits(0).total());
+}
+
 TEST(CanFrameBits, FdSizes) {
   EXPECT_EQ(fd_frame_bytes(6), 6);
   EXPECT_EQ(fd_frame_bytes(9), 12);
