@@ -1,25 +1,24 @@
 #pragma once
-// Worst-case CAN bus load of the cyclic traffic (DESIGN.md "CAN contract" and "Beating the
-// naive bus limit"). A classic standard (11-bit) data frame with n data bytes takes at most
-//   bits = 47 + 8n + floor((34 + 8n - 1) / 4)
-// 47 = SOF, id, RTR, IDE, r0, DLC, CRC, delimiters, ACK, EOF and the 3-bit intermission;
-// the last term is the worst-case stuff bits over the 34 + 8n bits that are stuffed.
-// Per cycle: one SYNC, the RPDO traffic, one TPDO1 per drive. Heartbeats, EMCY and SDO
-// are not cyclic and are left out (they fit into the margin the load limit keeps).
+// Worst-case CAN bus load of the cyclic traffic of the layout the CANopen master runs today
+// (RpdoLayoutKind, firmware_if/pdo.hpp): one SYNC, the RPDO traffic, one TPDO1 (statusword +
+// position) per drive; the controlword RPDO of the broadcast mode is sent on change and not
+// counted here. Frame sizes: firmware_if/can_frame_bits.hpp. The three layouts of issue 15
+// (with the event frames counted at their inhibit-time bound, and CAN FD) are modelled in
+// firmware_if/bus_layout.hpp, which `dualv bus-load` prints side by side.
 #include <cstdint>
 
+#include "firmware_if/can_frame_bits.hpp"
 #include "firmware_if/pdo.hpp"
 
 namespace dualv::fw {
 
+// Classic 11-bit frame: 47 + 8n + floor((34 + 8n - 1) / 4) bits.
 constexpr std::uint32_t worst_case_frame_bits(std::uint8_t data_bytes) noexcept {
-  const std::uint32_t n = data_bytes > 8 ? 8 : data_bytes;
-  return 47 + 8 * n + (34 + 8 * n - 1) / 4;
+  return classic_frame_bits(data_bytes).total();
 }
 // 29-bit frames (for comparison): 67 + 8n + floor((54 + 8n - 1) / 4).
 constexpr std::uint32_t worst_case_extended_frame_bits(std::uint8_t data_bytes) noexcept {
-  const std::uint32_t n = data_bytes > 8 ? 8 : data_bytes;
-  return 67 + 8 * n + (54 + 8 * n - 1) / 4;
+  return classic_extended_frame_bits(data_bytes).total();
 }
 
 // Worst-case bits of one control cycle for `drives` drives. sync_bytes: 0 (plain SYNC) or

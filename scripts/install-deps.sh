@@ -11,7 +11,7 @@ PKGS=(
   libyaml-cpp-dev libcli11-dev libfmt-dev libspdlog-dev
   libsodium-dev libsystemd-dev
   user-mode-linux kmod iproute2 can-utils
-  python3-matplotlib python3-numpy
+  python3-matplotlib python3-numpy python3-yaml
   dpkg-dev file
 )
 

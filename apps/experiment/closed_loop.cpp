@@ -39,9 +39,12 @@ void accumulate(SegmentMetrics& m, const Row& row, const Row* prev, int n, doubl
   const double ex = std::abs(row.X_d.x() - row.X.x()) * 1e3;
   const double ey = std::abs(row.X_d.y() - row.X.y()) * 1e3;
   const double e = std::hypot(ex, ey);
-  m.max_error_x_mm = std::max(m.max_error_x_mm, ex);
-  m.max_error_y_mm = std::max(m.max_error_y_mm, ey);
-  m.max_error_mm = std::max(m.max_error_mm, e);
+  auto keep_max = [&row](double& max, double& t, double v) {
+    if (v > max) max = v, t = row.t;
+  };
+  keep_max(m.max_error_x_mm, m.t_max_error_x, ex);
+  keep_max(m.max_error_y_mm, m.t_max_error_y, ey);
+  keep_max(m.max_error_mm, m.t_max_error, e);
   sum_sq_err += e * e;
   sum_sq_internal += row.tau_internal * row.tau_internal;
   for (int i = 0; i < n; ++i) {
@@ -65,12 +68,16 @@ void compute_metrics(const trajectory::Program& program, RunResult& r) {
   r.shapes = SegmentMetrics{};
   r.shapes.label = "all shapes";
   r.shapes.kind = trajectory::SegmentKind::kShape;
-  double shape_sq_err = 0.0, shape_sq_int = 0.0;
+  r.program = SegmentMetrics{};
+  r.program.label = "program";
+  r.program.kind = trajectory::SegmentKind::kShape;
+  double shape_sq_err = 0.0, shape_sq_int = 0.0, program_sq_err = 0.0, program_sq_int = 0.0;
   for (std::size_t k = 0; k < r.rows.size(); ++k) {
     const Row& row = r.rows[k];
+    const Row* prev = k > 0 ? &r.rows[k - 1] : nullptr;
+    accumulate(r.program, row, prev, r.n, program_sq_err, program_sq_int);
     const std::size_t s = static_cast<std::size_t>(row.segment);
     if (s >= segs.size()) continue;
-    const Row* prev = k > 0 ? &r.rows[k - 1] : nullptr;
     accumulate(r.segments[s], row, prev, r.n, sq_err[s], sq_int[s]);
     if (segs[s].kind == trajectory::SegmentKind::kShape)
       accumulate(r.shapes, row, prev, r.n, shape_sq_err, shape_sq_int);
@@ -85,6 +92,10 @@ void compute_metrics(const trajectory::Program& program, RunResult& r) {
   if (r.shapes.cycles > 0) {
     r.shapes.rms_error_mm = std::sqrt(shape_sq_err / r.shapes.cycles);
     r.shapes.rms_internal = std::sqrt(shape_sq_int / r.shapes.cycles);
+  }
+  if (r.program.cycles > 0) {
+    r.program.rms_error_mm = std::sqrt(program_sq_err / r.program.cycles);
+    r.program.rms_internal = std::sqrt(program_sq_int / r.program.cycles);
   }
 }
 

@@ -45,7 +45,9 @@ struct SegmentMetrics {
   std::string label;  // e.g. "circle"
   trajectory::SegmentKind kind = trajectory::SegmentKind::kDwell;
   double max_error_x_mm = 0.0, max_error_y_mm = 0.0;
-  double max_error_mm = 0.0, rms_error_mm = 0.0;  // |(x, y)| error
+  double max_error_mm = 0.0, rms_error_mm = 0.0;    // |(x, y)| error
+  double t_max_error_x = 0.0, t_max_error_y = 0.0;  // program time of the maxima [s]
+  double t_max_error = 0.0;
   std::array<double, drivers::kMaxDrives> peak_tau{};
   double max_tau_step = 0.0;  // largest |tau_k - tau_k-1| of any motor [N m]
   double rms_internal = 0.0;  // RMS |N tau| of the commands [N m]
@@ -68,8 +70,11 @@ struct RunResult {
   std::vector<Row> rows;
   std::vector<SegmentMetrics> segments;  // one per program segment
   SegmentMetrics shapes;                 // all shape segments together
-  double robot_time = 0.0;               // [s]
-  double wall_time = 0.0;                // [s]
+  // Every cycle of the run: moves, dwells, the settling after the program and the ringing
+  // after each shape, which the per-shape windows leave out.
+  SegmentMetrics program;
+  double robot_time = 0.0;  // [s]
+  double wall_time = 0.0;   // [s]
   bool ok = true;
   std::string failure;  // why the run stopped early
   // The loop cycle that took the reference (cycle numbers in the fault log and telemetry

@@ -46,7 +46,19 @@ std::string summary_table(const std::vector<RunResult>& runs) {
     for (const auto& m : r.segments)
       if (m.kind == trajectory::SegmentKind::kShape) out += metrics_line(r.variant.name, m, n);
     out += metrics_line(r.variant.name, r.shapes, n);
+    out += metrics_line(r.variant.name, r.program, n);
   }
+  out += fmt::format(
+      "(a shape's row covers its own window only; `program` is every cycle of the run, with the "
+      "moves, dwells and the ringing after each shape)\n");
+  for (const auto& r : runs)
+    if (r.program.cycles > 0)
+      out += fmt::format(
+          "{}: whole program max |ex| {:.3f} mm at t = {:.3f} s, max |ey| {:.3f} mm at t = {:.3f} "
+          "s, max |e| {:.3f} mm at t = {:.3f} s\n",
+          r.variant.name, r.program.max_error_x_mm, r.program.t_max_error_x,
+          r.program.max_error_y_mm, r.program.t_max_error_y, r.program.max_error_mm,
+          r.program.t_max_error);
   const RunResult* retimed = nullptr;
   const RunResult* original = nullptr;
   for (const auto& r : runs) {
@@ -62,6 +74,11 @@ std::string summary_table(const std::vector<RunResult>& runs) {
         *std::max_element(retimed->shapes.peak_tau.begin(), retimed->shapes.peak_tau.begin() + n),
         *std::max_element(original->shapes.peak_tau.begin(),
                           original->shapes.peak_tau.begin() + n));
+    out += fmt::format(
+        "retimed vs original clock (whole program): max error {:.3f} vs {:.3f} mm, largest "
+        "torque step {:.2f} vs {:.2f} N m\n",
+        retimed->program.max_error_mm, original->program.max_error_mm,
+        retimed->program.max_tau_step, original->program.max_tau_step);
   }
   return out;
 }
@@ -106,6 +123,7 @@ void write_csv(const std::string& dir, const std::vector<RunResult>& runs) {
     for (const auto& m : r.segments)
       if (m.kind == trajectory::SegmentKind::kShape) put(m, std::to_string(m.segment));
     put(r.shapes, "all");
+    put(r.program, "program");
   }
   if (!f) throw std::runtime_error(fmt::format("cannot write {}", file));
 }
