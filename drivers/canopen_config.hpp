@@ -22,12 +22,41 @@
 
 namespace dualv::drivers {
 
+// What boot does with an object that CiA 301 / CiA 402 do not make mandatory for a cyclic
+// synchronous torque drive (drivers/canopen/boot.hpp): write it and refuse a drive that
+// lacks it (required), write it and skip it when the drive answers 06020000h / 06090011h
+// (optional, printed in the boot log), or never touch it (off).
+enum class ObjectPolicy : std::uint8_t { kRequired, kOptional, kOff };
+const char* to_string(ObjectPolicy p) noexcept;
+
+// The non-mandatory objects of the boot list, each with its policy (`can.objects` for every
+// drive, `can.drives[i].objects` per drive; keys as below).
+struct BootObjects {
+  ObjectPolicy cycle_period = ObjectPolicy::kOptional;          // 1006h  cycle_period
+  ObjectPolicy interpolation_period = ObjectPolicy::kOptional;  // 60C2h  interpolation_period
+  ObjectPolicy abort_connection = ObjectPolicy::kRequired;      // 6007h  abort_connection
+  ObjectPolicy quick_stop = ObjectPolicy::kRequired;            // 605Ah  quick_stop
+  ObjectPolicy fault_reaction = ObjectPolicy::kRequired;        // 605Eh  fault_reaction
+  ObjectPolicy consumer_heartbeat = ObjectPolicy::kRequired;    // 1016h  consumer_heartbeat
+  ObjectPolicy digital_inputs = ObjectPolicy::kRequired;        // TPDO2 = 60FDh  digital_inputs
+};
+
+// Where boot leaves the drives when the process ends (CanopenActuatorSet::shut_down):
+// voltage disabled in every case, then NMT pre-operational (PDOs stop, SDO stays), stopped
+// (only NMT and heartbeat), or left operational with the voltage disabled.
+enum class OnExit : std::uint8_t { kPreOperational, kStopped, kOperationalDisabled };
+const char* to_string(OnExit e) noexcept;
+
 struct CanDriveConfig {
   std::uint8_t node_id = 1;
   std::uint32_t counts_per_revolution = 1u << 20;  // 608Fh increments / motor revolutions
   double rated_torque = 50.0;                      // [N m], the drive's 6076h (in mN m)
   double max_torque = 60.0;                        // [N m], written to 6072h (per mille)
-  std::int32_t zero_offset = 0;                    // [counts] encoder value at joint angle 0
+  // [N m] the drive's peak torque (data sheet; in per mille of 6076h it bounds 6072h):
+  // max_torque above it is refused.
+  double peak_torque = 127.0;
+  std::int32_t zero_offset = 0;  // [counts] encoder value at joint angle 0
+  BootObjects objects{};         // can.objects, overridden by can.drives[i].objects
 };
 
 struct CanConfig {
@@ -60,6 +89,7 @@ struct CanConfig {
   fw::QuickStopOption quick_stop = fw::QuickStopOption::kQuickStopRamp;
   fw::FaultReactionOption fault_reaction = fw::FaultReactionOption::kQuickStopRamp;
   bool check_drive_parameters = true;
+  OnExit on_exit = OnExit::kPreOperational;  // can.on_exit
 
   std::vector<CanDriveConfig> drives;  // drive i = joint i; 1..kMaxDrives
 
@@ -74,10 +104,18 @@ struct CanConfig {
 CanConfig default_can_config();
 
 // Reads the `can:` node (the section itself, e.g. root["can"]). An absent section gives
-// default_can_config(). Throws dualv::ConfigError naming every bad key.
-CanConfig load_can_config(const YAML::Node& can_node);
-// Same, from a file's `can:` section.
+// default_can_config(). Throws dualv::ConfigError naming every bad key. `safety_torque_max`
+// [N m] (the `safety.torque.max` of the same file, 0 = not checked): a
+// can.drives[].max_torque above it is refused.
+CanConfig load_can_config(const YAML::Node& can_node, double safety_torque_max = 0.0);
+// Same, from a file's `can:` section, checked against the file's `safety.torque.max`.
 CanConfig load_can_config_file(const std::string& path);
+// `safety.torque.max` of a configuration root (the safety layer's default, 60 N m, when the
+// key is absent); only read here to bound can.drives[].max_torque.
+double safety_torque_max_of(const YAML::Node& root);
+// Throws ConfigError naming can.drives[i].max_torque when it exceeds the drive's peak
+// (can.drives[i].peak_torque, as per mille of 6076h) or `safety_torque_max` (> 0).
+void check_torque_limits(const CanConfig& config, double safety_torque_max);
 // Re-checks a configuration built in code (the same rules as the loader); throws ConfigError.
 void validate(const CanConfig& config);
 // Throws ConfigError ("can.sync.period: 0.002 s but the control period is 0.001 s") when the
