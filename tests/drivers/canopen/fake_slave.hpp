@@ -194,16 +194,8 @@ class FakeSlave {
       if (rising7 && fault_reset_works) cia = fw::Cia402State::kSwitchOnDisabled;
       return;
     }
-    const fw::Command c = fw::decode_command(cw);
-    for (const fw::Transition& t : fw::kTransitions) {
-      if (t.from != cia || !t.command) continue;
-      const bool same = *t.command == c || (c == fw::Command::kSwitchOn &&
-                                            *t.command == fw::Command::kDisableOperation);
-      if (same && t.number != 16) {
-        cia = t.to;
-        return;
-      }
-    }
+    // The drive side of firmware_if's transition table, as the emulator uses it.
+    if (const auto t = fw::slave_transition(cia, fw::decode_command(cw))) cia = t->to;
   }
 
   void sdo(const fw::CanFrame& f) {
@@ -254,8 +246,8 @@ class FakeSlave {
           fw::CanFrame r;
           r.id = fw::cob_id(fw::Function::kSdoTx, node_);
           r.dlc = 8;
-          r.data = {0x42, static_cast<std::uint8_t>(m.index), static_cast<std::uint8_t>(m.index >> 8),
-                    m.subindex};
+          r.data = {0x42, static_cast<std::uint8_t>(m.index),
+                    static_cast<std::uint8_t>(m.index >> 8), m.subindex};
           std::copy(it->second.begin(), it->second.end(), r.data.begin() + 4);
           (void)bus_.send(r);
         } else if (it->second.size() <= 4) {
