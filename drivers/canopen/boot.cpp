@@ -150,8 +150,7 @@ std::vector<ConfigWrite> boot_writes(const CanConfig& c, int drive) {
   std::int8_t index = 0;
   if (interpolation_period(c.sync_period_ns, value, index)) {
     object("interpolation_period", o.interpolation_period, [&] {
-      w.push_back(
-          {fw::od::kInterpolationPeriodValue, value, "interpolation period value (60C2h)"});
+      w.push_back({fw::od::kInterpolationPeriodValue, value, "interpolation period value (60C2h)"});
       w.push_back({fw::od::kInterpolationPeriodIndex, static_cast<std::uint8_t>(index),
                    "interpolation period index (60C2h)"});
     });

@@ -42,7 +42,7 @@ inline constexpr fw::PdoLayout kDigitalInputsTpdoLayout{{fw::map_entry(fw::od::k
 struct ConfigWrite {
   fw::OdEntry entry;
   std::uint32_t value = 0;
-  const char* why = "";  // short reason, for logs and error messages
+  const char* why = "";          // short reason, for logs and error messages
   const char* object = nullptr;  // can.objects key, nullptr = mandatory
   ObjectPolicy policy = ObjectPolicy::kRequired;
 };

@@ -3,9 +3,9 @@
 // download (write) and upload (read), one transfer at a time, with a per-request timeout
 // and abort handling. Every response form CiA 301 allows a server is accepted: expedited
 // upload with and without size indication, segmented upload with and without size, toggle
-// checked on every segment, an abort with any multiplexer. No allocation: the caller owns the payload and receive buffers,
-// which must outlive the transfer. noexcept throughout, so it may run in any thread; the
-// blocking helper for set-up is CanopenMaster (drivers/canopen/master.hpp).
+// checked on every segment, an abort with any multiplexer. No allocation: the caller owns the
+// payload and receive buffers, which must outlive the transfer. noexcept throughout, so it may run
+// in any thread; the blocking helper for set-up is CanopenMaster (drivers/canopen/master.hpp).
 //
 // Timeout: measured from the last request frame sent (initiate or segment); the transfer
 // times out at exactly `timeout` after it (T - 1 ns: still busy). On timeout, on a

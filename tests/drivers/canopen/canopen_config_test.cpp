@@ -223,17 +223,18 @@ TEST(CanConfigRules, MaxTorqueAboveTheSafetyLimitRefused) {
   EXPECT_THROW(check_torque_limits(load_can_config(n), 79.9), ConfigError);
 }
 TEST(CanConfigRules, SafetyLimitReadFromTheSameFile) {
-  const YAML::Node root = YAML::Load(
-      "safety: {torque: {max: 40.0}}\ncan: {drives: [{node_id: 1, max_torque: 45}]}");
+  const YAML::Node root =
+      YAML::Load("safety: {torque: {max: 40.0}}\ncan: {drives: [{node_id: 1, max_torque: 45}]}");
   EXPECT_DOUBLE_EQ(safety_torque_max_of(root), 40.0);
   EXPECT_DOUBLE_EQ(safety_torque_max_of(YAML::Load("can: {}")), 60.0);  // safety's default
   const std::string path = ::testing::TempDir() + "/can_safety_limit.yaml";
   {
     std::FILE* f = std::fopen(path.c_str(), "w");
     ASSERT_NE(f, nullptr);
-    std::fputs("safety:\n  torque:\n    max: 40.0\ncan:\n  drives:\n    - {node_id: 1, "
-               "max_torque: 45}\n",
-               f);
+    std::fputs(
+        "safety:\n  torque:\n    max: 40.0\ncan:\n  drives:\n    - {node_id: 1, "
+        "max_torque: 45}\n",
+        f);
     std::fclose(f);
   }
   try {
@@ -279,13 +280,13 @@ TEST(CanConfigRules, ObjectPolicyValuesAndKeys) {
   expect_error("can: {objects: {no_such_object: off}}", "no_such_object");
 }
 TEST(CanConfigRules, NoAbortConnectionNeedsTheHeartbeatConsumer) {
+  expect_error("can: {objects: {abort_connection: optional, consumer_heartbeat: optional}}",
+               "can.drives[0].objects.consumer_heartbeat: must be required when "
+               "can.drives[0].objects.abort_connection is optional");
   expect_error(
-      "can: {objects: {abort_connection: optional, consumer_heartbeat: optional}}",
-      "can.drives[0].objects.consumer_heartbeat: must be required when "
-      "can.drives[0].objects.abort_connection is optional");
-  expect_error("can: {drives: [{node_id: 1, objects: {abort_connection: off, "
-               "consumer_heartbeat: off}}]}",
-               "can.drives[0].objects.consumer_heartbeat: must be required");
+      "can: {drives: [{node_id: 1, objects: {abort_connection: off, "
+      "consumer_heartbeat: off}}]}",
+      "can.drives[0].objects.consumer_heartbeat: must be required");
   EXPECT_NO_THROW(load("can: {objects: {abort_connection: off}}"));
 }
 TEST(CanConfigRules, NoHeartbeatConsumerNeedsTheRpdoDeadline) {
