@@ -173,36 +173,6 @@ BootObjects read_objects(YamlReader& parent, const BootObjects& fallback, const 
 
 }  // namespace
 
-const char* to_string(ObjectPolicy p) noexcept {
-  switch (p) {
-    case ObjectPolicy::kRequired:
-      return "required";
-    case ObjectPolicy::kOptional:
-      return "optional";
-    case ObjectPolicy::kOff:
-      return "off";
-  }
-  return "?";
-}
-
-const char* to_string(OnExit e) noexcept {
-  switch (e) {
-    case OnExit::kPreOperational:
-      return "preoperational";
-    case OnExit::kStopped:
-      return "stopped";
-    case OnExit::kOperationalDisabled:
-      return "operational_disabled";
-  }
-  return "?";
-}
-
-int CanConfig::drive_of_node(std::uint8_t node) const noexcept {
-  for (std::size_t i = 0; i < drives.size(); ++i)
-    if (drives[i].node_id == node) return static_cast<int>(i);
-  return -1;
-}
-
 CanConfig default_can_config() {
   CanConfig c;
   for (std::uint8_t id = 1; id <= 4; ++id)

@@ -7,6 +7,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "sim/canopen/object_dictionary.hpp"
+#include "sim/canopen/sdo_server.hpp"
+
 namespace dualv::sim {
 
 namespace {
@@ -16,27 +19,14 @@ using fw::OdEntry;
 using fw::SdoAbortCode;
 using fw::od::PdoDirection;
 
-constexpr std::size_t kOdCapacity = 192;
 constexpr std::uint32_t kNoAbort = 0;
 
 constexpr std::uint32_t abort_value(SdoAbortCode c) noexcept {
   return static_cast<std::uint32_t>(c);
 }
 
-constexpr std::uint32_t mask_of(const OdEntry& e) noexcept {
-  return e.size() >= 4 ? 0xFFFFFFFFu : ((1u << e.bits()) - 1u);
-}
-
-constexpr std::int32_t as_signed(std::uint32_t raw, std::uint8_t size) noexcept {
-  switch (size) {
-    case 1:
-      return static_cast<std::int8_t>(raw & 0xFFu);
-    case 2:
-      return static_cast<std::int16_t>(raw & 0xFFFFu);
-    default:
-      return static_cast<std::int32_t>(raw);
-  }
-}
+using canopen::as_signed;
+using canopen::mask_of;
 
 // 1001h error register bits for an EMCY error code's class (CiA 301 7.5.2.2).
 constexpr std::uint8_t error_register_for(std::uint16_t code) noexcept {
@@ -59,12 +49,6 @@ constexpr std::uint8_t error_register_for(std::uint16_t code) noexcept {
   }
   return r;
 }
-
-struct Slot {
-  OdEntry entry{};
-  std::uint32_t value = 0;
-  std::uint32_t initial = 0;
-};
 
 struct MapRef {
   int slot = -1;  // -1: dummy entry (RPDO only)
@@ -91,8 +75,6 @@ struct Pdo {
   std::uint64_t last_rx_ns = 0;     // RPDO deadline (event timer)
   bool deadline_armed = false;
 };
-
-enum class SdoState : std::uint8_t { kIdle, kDownload, kUpload };
 
 // The objects a foreign drive may lack (DriveEmulatorConfig::absent_objects).
 bool may_be_absent(std::uint16_t index) noexcept {
@@ -173,9 +155,9 @@ void DriveEmulatorConfig::validate(int plant_joints) const {
     }
 }
 
-DriveEmulatorConfig emulator_config_from(const drivers::CanConfig& can) {
+DriveEmulatorConfig emulator_config_from(const fw::CanConfig& can) {
   DriveEmulatorConfig c;
-  for (const drivers::CanDriveConfig& d : can.drives) {
+  for (const fw::CanDriveConfig& d : can.drives) {
     DriveEmulatorDrive e;
     e.node_id = d.node_id;
     e.counts_per_revolution = d.counts_per_revolution;
@@ -226,8 +208,7 @@ struct DriveEmulator::Drive {
   std::uint8_t node = 1;
   DriveEmulatorDrive cfg{};
 
-  std::array<Slot, kOdCapacity> od{};
-  std::size_t od_count = 0;
+  canopen::ObjectDictionary dict;
   // Slots of the objects the emulator acts on.
   int s_cw = -1, s_sw = -1, s_tt = -1, s_mode = -1, s_mode_disp = -1, s_pos = -1, s_vel = -1,
       s_torque = -1, s_din = -1, s_err = -1, s_err_reg = -1, s_hb_prod = -1, s_abort = -1,
@@ -271,47 +252,26 @@ struct DriveEmulator::Drive {
   std::int32_t encoder_offset = 0;
   std::uint32_t hw_inputs = 0;  // 60FDh as wired
 
-  // SDO server.
-  SdoState sdo = SdoState::kIdle;
-  int sdo_slot = -1;
-  std::array<std::uint8_t, 16> sdo_rx{};
-  fw::SdoSegmentReceiver receiver{std::span<std::uint8_t>(sdo_rx)};
-  std::array<std::uint8_t, 4> sdo_tx{};
-  fw::SdoSegmentSender sender{};
+  canopen::SdoServer sdo_server;
 
   EmulatedDriveCounters counters{};
 
-  // ---- dictionary ----
-  int find(std::uint16_t idx, std::uint8_t sub) const noexcept {
-    for (std::size_t i = 0; i < od_count; ++i)
-      if (od[i].entry.index == idx && od[i].entry.subindex == sub) return static_cast<int>(i);
-    return -1;
-  }
-  int find(const OdEntry& e) const noexcept { return find(e.index, e.subindex); }
-  bool has_index(std::uint16_t idx) const noexcept {
-    for (std::size_t i = 0; i < od_count; ++i)
-      if (od[i].entry.index == idx) return true;
-    return false;
-  }
-  std::vector<std::uint16_t> absent;  // DriveEmulatorConfig::absent_objects
-  int add(const OdEntry& e, std::uint32_t initial) {
-    if (std::find(absent.begin(), absent.end(), e.index) != absent.end()) return -1;
-    if (od_count >= od.size()) throw std::logic_error("drive emulator: dictionary full");
-    od[od_count] = Slot{e, initial & mask_of(e), initial & mask_of(e)};
-    return static_cast<int>(od_count++);
-  }
-  std::uint32_t u(int slot) const noexcept { return slot >= 0 ? od[slot].value : 0; }
-  std::int32_t i(int slot) const noexcept {
-    return slot >= 0 ? as_signed(od[slot].value, od[slot].entry.size()) : 0;
-  }
-  void set(int slot, std::uint32_t v) noexcept {
-    if (slot >= 0) od[slot].value = v & mask_of(od[slot].entry);
-  }
+  // ---- dictionary (sim/canopen/object_dictionary.hpp) ----
+  int find(std::uint16_t idx, std::uint8_t sub) const noexcept { return dict.find(idx, sub); }
+  int find(const OdEntry& e) const noexcept { return dict.find(e); }
+  bool has_index(std::uint16_t idx) const noexcept { return dict.has_index(idx); }
+  int add(const OdEntry& e, std::uint32_t initial) { return dict.add(e, initial); }
+  const OdEntry& entry(int slot) const noexcept { return dict.entry(slot); }
+  std::uint32_t u(int slot) const noexcept { return dict.u(slot); }
+  std::int32_t i(int slot) const noexcept { return dict.i(slot); }
+  void set(int slot, std::uint32_t v) noexcept { dict.set(slot, v); }
 
   void build(const DriveEmulatorConfig& c, int joint) {
     namespace od = fw::od;
     index = joint;
-    absent = c.absent_objects;
+    dict.set_absent(c.absent_objects);
+    sdo_server.configure(c.drives[static_cast<std::size_t>(joint)].node_id,
+                         {c.segmented_upload, c.upload_without_size});
     cfg = c.drives[static_cast<std::size_t>(joint)];
     node = cfg.node_id;
     add(od::kDeviceType, 0x00020000u | od::kDeviceProfileCia402);  // servo drive, CiA 402
@@ -422,7 +382,7 @@ struct DriveEmulator::Drive {
       } else {
         const int slot = find(e.index, e.subindex);
         if (slot < 0) return abort_value(SdoAbortCode::kObjectDoesNotExist);
-        const OdEntry& o = od[static_cast<std::size_t>(slot)].entry;
+        const OdEntry& o = dict.entry(slot);
         const bool writable = o.access == fw::Access::kRw || o.access == fw::Access::kWo;
         const bool readable = o.access != fw::Access::kWo;
         if (!o.pdo_mappable || e.bits != o.bits() || (rx && !writable) || (!rx && !readable))
@@ -437,7 +397,7 @@ struct DriveEmulator::Drive {
   // ---- value checks for SDO downloads (CiA 301 table 22 codes) ----
   std::uint32_t check_write(int slot, std::uint32_t v) const noexcept {
     namespace fo = fw::od;
-    const OdEntry& e = od[static_cast<std::size_t>(slot)].entry;
+    const OdEntry& e = dict.entry(slot);
     const std::int32_t sv = as_signed(v, e.size());
     auto range = [&](std::int32_t lo, std::int32_t hi) -> std::uint32_t {
       if (sv < lo) return abort_value(SdoAbortCode::kValueTooLow);
@@ -537,13 +497,6 @@ struct DriveEmulator::Drive {
     set(s_err_reg, error_register_now());
     send_emcy(emu, fw::emcy::kNoError);
   }
-  void send_sdo_abort(DriveEmulator& emu, std::uint16_t idx, std::uint8_t sub,
-                      std::uint32_t code) noexcept {
-    send(emu, fw::sdo_abort(node, fw::SdoRole::kServer, idx, sub, code));
-    ++counters.sdo_aborts_sent;
-    sdo = SdoState::kIdle;
-  }
-
   // ---- CiA 402 ----
   std::uint16_t statusword(bool estop_input) const noexcept {
     std::uint16_t w = static_cast<std::uint16_t>(fw::statusword_bits(state) | fw::sw::kRemote);
@@ -677,7 +630,7 @@ struct DriveEmulator::Drive {
 
   // ---- dictionary writes and their effects ----
   void after_write(DriveEmulator& emu, int slot, std::uint64_t now) noexcept {
-    const OdEntry& e = od[static_cast<std::size_t>(slot)].entry;
+    const OdEntry& e = dict.entry(slot);
     if (slot == s_cw) {
       on_controlword(emu);
     } else if (slot == s_mode) {
@@ -714,16 +667,12 @@ struct DriveEmulator::Drive {
   }
 
   // ---- NMT ----
-  void reset_od(std::uint16_t from, std::uint16_t to) noexcept {
-    for (std::size_t k = 0; k < od_count; ++k)
-      if (od[k].entry.index >= from && od[k].entry.index <= to) od[k].value = od[k].initial;
-  }
   void reset_communication_state(std::uint64_t now) noexcept {
     for (std::uint8_t n = 1; n <= kEmulatedPdos; ++n) {
       rebuild(PdoDirection::kRpdo, n);
       rebuild(PdoDirection::kTpdo, n);
     }
-    sdo = SdoState::kIdle;
+    sdo_server.reset();
     hb_armed.fill(false);
     hb_lost.fill(false);
     pdo_length_error = false;
@@ -736,7 +685,7 @@ struct DriveEmulator::Drive {
   }
   // Power-on or reset node: the whole dictionary and the CiA 402 state machine restart.
   void reset_application(DriveEmulator& emu, std::uint64_t now) noexcept {
-    reset_od(0x0000, 0xFFFF);
+    dict.reset(0x0000, 0xFFFF);
     set(s_din, hw_inputs);
     prev_cw = 0;
     set_state(emu, Cia402State::kNotReadyToSwitchOn, 0);
@@ -783,151 +732,40 @@ struct DriveEmulator::Drive {
         break;
       case fw::NmtCommand::kResetCommunication:
         leave_operational(emu);
-        reset_od(0x1000, 0x1FFF);
+        dict.reset(0x1000, 0x1FFF);
         reset_communication_state(now);
         boot_up(emu, now);
         break;
     }
   }
 
-  // ---- SDO server (CiA 301 7.2.4) ----
-  std::uint32_t length_abort(std::size_t got, std::size_t want) const noexcept {
-    return abort_value(got > want ? SdoAbortCode::kLengthTooHigh : SdoAbortCode::kLengthTooLow);
-  }
+  // ---- SDO server (sim/canopen/sdo_server.hpp) ----
   // A download's value, checked and stored; kNoAbort on success.
   std::uint32_t download(DriveEmulator& emu, int slot, std::uint32_t v,
                          std::uint64_t now) noexcept {
-    v &= mask_of(od[static_cast<std::size_t>(slot)].entry);
+    v &= mask_of(dict.entry(slot));
     if (const std::uint32_t a = check_write(slot, v); a != kNoAbort) return a;
     set(slot, v);
     after_write(emu, slot, now);
     return kNoAbort;
   }
-  // Finds (index, sub) for an initiate; sends the abort and returns -1 when it is missing.
-  int sdo_lookup(DriveEmulator& emu, const fw::SdoMessage& m) noexcept {
-    const int slot = find(m.index, m.subindex);
-    if (slot < 0)
-      send_sdo_abort(emu, m.index, m.subindex,
-                     abort_value(has_index(m.index) ? SdoAbortCode::kSubindexDoesNotExist
-                                                    : SdoAbortCode::kObjectDoesNotExist));
-    return slot;
-  }
-
   void on_sdo(DriveEmulator& emu, const fw::CanFrame& frame, std::uint64_t now) noexcept {
     ++counters.sdo_requests;
-    const fw::Result<fw::SdoMessage> r = fw::decode_sdo_request(frame);
-    if (!r) {
-      if (r.error() == fw::Error::kBadCommandSpecifier)
-        send_sdo_abort(emu, fw::get_u16_le(&frame.data[1]), frame.data[3],
-                       abort_value(SdoAbortCode::kBadCommandSpecifier));
-      return;  // a wrong DLC is not an SDO request at all: ignored
-    }
-    const fw::SdoMessage& m = *r;
-    switch (m.type) {
-      case fw::SdoType::kAbort:
-        sdo = SdoState::kIdle;
-        return;
-      case fw::SdoType::kDownloadInitiate: {
-        sdo = SdoState::kIdle;
-        const int slot = sdo_lookup(emu, m);
-        if (slot < 0) return;
-        const OdEntry& e = od[static_cast<std::size_t>(slot)].entry;
-        if (e.access == fw::Access::kRo || e.access == fw::Access::kConst)
-          return send_sdo_abort(emu, m.index, m.subindex, abort_value(SdoAbortCode::kReadOnly));
-        if (m.expedited) {
-          if (m.size_indicated && m.data_len != e.size())
-            return send_sdo_abort(emu, m.index, m.subindex, length_abort(m.data_len, e.size()));
-          const std::uint32_t a =
-              download(emu, slot, fw::get_uint_le(m.data.data(), e.size()), now);
-          if (a != kNoAbort) return send_sdo_abort(emu, m.index, m.subindex, a);
-          send(emu, fw::sdo_download_initiate_response(node, m.index, m.subindex));
-          return;
-        }
-        if (m.size_indicated && m.size != e.size())
-          return send_sdo_abort(emu, m.index, m.subindex, length_abort(m.size, e.size()));
-        receiver.begin(m.size_indicated ? m.size : 0);
-        sdo = SdoState::kDownload;
-        sdo_slot = slot;
-        send(emu, fw::sdo_download_initiate_response(node, m.index, m.subindex));
-        return;
+    // The drive behind the server: value checks and effects, live values before uploads.
+    struct Hooks final : canopen::SdoServerHooks {
+      Hooks(Drive& d, DriveEmulator& e, std::uint64_t t) noexcept : drive(d), emu(e), now(t) {}
+      std::uint32_t download(int slot, std::uint32_t v) noexcept override {
+        return drive.download(emu, slot, v, now);
       }
-      case fw::SdoType::kDownloadSegment: {
-        if (sdo != SdoState::kDownload)
-          return send_sdo_abort(emu, 0, 0, abort_value(SdoAbortCode::kBadCommandSpecifier));
-        const OdEntry& e = od[static_cast<std::size_t>(sdo_slot)].entry;
-        switch (receiver.accept(m)) {
-          case fw::Error::kNone:
-            break;
-          case fw::Error::kToggleMismatch:
-            return send_sdo_abort(emu, e.index, e.subindex,
-                                  abort_value(SdoAbortCode::kToggleNotAlternated));
-          case fw::Error::kTooLong:
-            return send_sdo_abort(emu, e.index, e.subindex,
-                                  abort_value(SdoAbortCode::kLengthTooHigh));
-          case fw::Error::kSizeMismatch:
-            return send_sdo_abort(emu, e.index, e.subindex,
-                                  abort_value(SdoAbortCode::kLengthTooLow));
-          default:
-            return send_sdo_abort(emu, e.index, e.subindex,
-                                  abort_value(SdoAbortCode::kBadCommandSpecifier));
-        }
-        if (receiver.done()) {
-          sdo = SdoState::kIdle;
-          const auto bytes = receiver.bytes();
-          if (bytes.size() != e.size())
-            return send_sdo_abort(emu, e.index, e.subindex, length_abort(bytes.size(), e.size()));
-          const std::uint32_t a =
-              download(emu, sdo_slot, fw::get_uint_le(bytes.data(), bytes.size()), now);
-          if (a != kNoAbort) return send_sdo_abort(emu, e.index, e.subindex, a);
-        }
-        send(emu, fw::sdo_download_segment_response(node, m.toggle));
-        return;
-      }
-      case fw::SdoType::kUploadInitiate: {
-        sdo = SdoState::kIdle;
-        const int slot = sdo_lookup(emu, m);
-        if (slot < 0) return;
-        const OdEntry& e = od[static_cast<std::size_t>(slot)].entry;
-        if (e.access == fw::Access::kWo)
-          return send_sdo_abort(emu, m.index, m.subindex, abort_value(SdoAbortCode::kWriteOnly));
-        refresh(emu);
-        const std::uint32_t v = u(slot);
-        if (emu.config_.upload_without_size && !emu.config_.segmented_upload) {
-          // e=1, s=0: four data bytes, the length left to the object's type.
-          fw::CanFrame r;
-          r.id = fw::cob_id(fw::Function::kSdoTx, node);
-          r.dlc = 8;
-          r.data[0] = 0x42;
-          fw::put_u16_le(&r.data[1], m.index);
-          r.data[3] = m.subindex;
-          fw::put_u32_le(&r.data[4], v & mask_of(e));
-          send(emu, r);
-          return;
-        }
-        if (!emu.config_.segmented_upload) {
-          send(emu, fw::sdo_upload_value_response(node, e, v));
-          return;
-        }
-        fw::put_u32_le(sdo_tx.data(), v);
-        sender.begin(std::span<const std::uint8_t>(sdo_tx.data(), e.size()));
-        sdo = SdoState::kUpload;
-        sdo_slot = slot;
-        send(emu, fw::sdo_upload_initiate_response(node, m.index, m.subindex, e.size()));
-        return;
-      }
-      case fw::SdoType::kUploadSegment: {
-        if (sdo != SdoState::kUpload)
-          return send_sdo_abort(emu, 0, 0, abort_value(SdoAbortCode::kBadCommandSpecifier));
-        const OdEntry& e = od[static_cast<std::size_t>(sdo_slot)].entry;
-        if (m.toggle != sender.next_toggle())
-          return send_sdo_abort(emu, e.index, e.subindex,
-                                abort_value(SdoAbortCode::kToggleNotAlternated));
-        const fw::SdoSegmentSender::Segment s = sender.next();
-        if (s.last) sdo = SdoState::kIdle;
-        send(emu, fw::sdo_upload_segment_response(node, s.toggle, s.bytes, s.last));
-        return;
-      }
-    }
+      void before_upload(int) noexcept override { drive.refresh(emu); }
+      Drive& drive;
+      DriveEmulator& emu;
+      std::uint64_t now;
+    } hooks(*this, emu, now);
+    const std::uint64_t aborts = sdo_server.aborts_sent();
+    fw::CanFrame response;
+    if (sdo_server.on_request(frame, dict, hooks, response)) send(emu, response);
+    counters.sdo_aborts_sent += sdo_server.aborts_sent() - aborts;
   }
 
   // ---- PDO traffic ----

@@ -104,7 +104,7 @@
 #include <vector>
 
 #include "drivers/can/can_bus.hpp"
-#include "drivers/canopen_config.hpp"
+#include "firmware_if/can_config.hpp"
 #include "firmware_if/firmware_if.hpp"
 #include "sim/plant.hpp"
 
@@ -151,9 +151,9 @@ struct DriveEmulatorConfig {
   void validate(int plant_joints) const;
 };
 
-// The emulator's view of the `can:` section (drivers/canopen_config.hpp): node ids, units,
+// The emulator's view of the `can:` section (firmware_if/can_config.hpp): node ids, units,
 // offsets, SYNC period, and as defaults the values the master writes at boot anyway.
-DriveEmulatorConfig emulator_config_from(const drivers::CanConfig& can);
+DriveEmulatorConfig emulator_config_from(const fw::CanConfig& can);
 
 // The plant behind the emulator: `plant` with its torque quantisation off (the wire
 // quantises) and its transport delay reduced by the one cycle the bus provides
@@ -263,7 +263,9 @@ class DriveEmulator {
   const DriveEmulatorConfig& config() const noexcept { return config_; }
 
  private:
-  struct Drive;  // one slave: dictionary, PDOs, SDO server, NMT, CiA 402 (in the .cpp)
+  // One slave: its dictionary and SDO server are the parts of sim/canopen/, the PDO engine,
+  // NMT, heartbeat / EMCY producers and the CiA 402 slave are in the .cpp.
+  struct Drive;
 
   void sync(std::uint64_t now_ns, bool real, std::uint64_t stamp_ns = 0) noexcept;
   void command_plant() noexcept;

@@ -94,7 +94,10 @@ fi
 
 # 3. the run
 if [[ $booted -eq 1 && $run_rc -ne 0 ]]; then
-  if grep -Eq "deadline|late|stale|8250|RPDO" "$tmp/run.log"; then
+  # Timing stops only: the loop's deadline and staleness watchdogs, a drive lost to a
+  # heartbeat gap, or the drives' RPDO deadline (EMCY 8250h) after a guest stall.
+  if grep -Eq "safety stop \((consecutive deadline misses|deadline miss|stale feedback|drive lost)\)|8250" \
+    "$tmp/run.log"; then
     echo "NOTE: the run stopped on a timing watchdog in the guest (exit $run_rc); boot, wire and" \
       "enable were checked, the loop's timing is issue 12's"
   else

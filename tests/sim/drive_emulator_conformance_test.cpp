@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
+#include <string>
 #include <vector>
 
 #include "tests/sim/emulator_fixture.hpp"
@@ -194,6 +196,159 @@ TEST(DriveEmulatorConfig, OnlyOptionalObjectsCanBeLeftOut) {
   }
   c.absent_objects = {0x60C2, 0x1006, 0x6007};
   EXPECT_NO_THROW(c.validate(4));
+}
+
+// ---- NMT (CiA 301 7.2.8.3.1: 000h, DLC 2, command specifier + node, 0 = all) -----------
+
+struct NmtCase {
+  const char* name;
+  std::vector<std::uint8_t> frame;      // the NMT frame's data bytes (DLC = size)
+  std::array<EmulatedNmt, 4> after;     // from every node Pre-operational
+  std::vector<std::uint16_t> boot_ups;  // 700h + id frames with 00h sent in answer
+};
+
+class EmulatorNmt : public EmulatorTest, public ::testing::WithParamInterface<NmtCase> {};
+
+TEST_P(EmulatorNmt, CommandAsTheStandardSays) {
+  const NmtCase& c = GetParam();
+  power_on();
+  fw::CanFrame f;
+  f.id = 0x000;
+  f.dlc = static_cast<std::uint8_t>(c.frame.size());
+  std::copy(c.frame.begin(), c.frame.end(), f.data.begin());
+  send(f);
+  now();
+  std::vector<std::uint16_t> boot_ups;
+  for (const fw::CanFrame& r : drain())
+    if (r.id >= 0x701 && r.id <= 0x704 && r.dlc == 1 && r.data[0] == 0x00) boot_ups.push_back(r.id);
+  EXPECT_EQ(boot_ups, c.boot_ups);
+  for (int i = 0; i < 4; ++i)
+    EXPECT_EQ(emu->status(i).nmt, c.after[static_cast<std::size_t>(i)]) << "node " << i + 1;
+}
+
+constexpr EmulatedNmt P = EmulatedNmt::kPreOperational;
+constexpr EmulatedNmt O = EmulatedNmt::kOperational;
+constexpr EmulatedNmt S = EmulatedNmt::kStopped;
+
+INSTANTIATE_TEST_SUITE_P(
+    Cia301, EmulatorNmt,
+    ::testing::Values(
+        NmtCase{"StartAll", {0x01, 0x00}, {O, O, O, O}, {}},
+        NmtCase{"StartNode2", {0x01, 0x02}, {P, O, P, P}, {}},
+        NmtCase{"StopAll", {0x02, 0x00}, {S, S, S, S}, {}},
+        NmtCase{"StopNode4", {0x02, 0x04}, {P, P, P, S}, {}},
+        NmtCase{"PreOperationalNode3", {0x80, 0x03}, {P, P, P, P}, {}},
+        NmtCase{"ResetNode1", {0x81, 0x01}, {P, P, P, P}, {0x701}},
+        NmtCase{"ResetCommunicationAll", {0x82, 0x00}, {P, P, P, P}, {0x701, 0x702, 0x703, 0x704}},
+        // Invalid: unknown command specifier, a node not on the bus, a node id above 127, a
+        // frame of the wrong length: ignored, nothing changes.
+        NmtCase{"UnknownCommandIgnored", {0x03, 0x00}, {P, P, P, P}, {}},
+        NmtCase{"OtherNodeIgnored", {0x01, 0x05}, {P, P, P, P}, {}},
+        NmtCase{"NodeAbove127Ignored", {0x01, 0x80}, {P, P, P, P}, {}},
+        NmtCase{"ShortFrameIgnored", {0x01}, {P, P, P, P}, {}},
+        NmtCase{"LongFrameIgnored", {0x01, 0x00, 0x00}, {P, P, P, P}, {}}),
+    [](const ::testing::TestParamInfo<NmtCase>& i) { return i.param.name; });
+
+TEST_F(EmulatorTest, StoppedNodeAnswersNoSdoAndResetNodeRestoresIt) {
+  power_on();
+  send(fw::encode_nmt(fw::NmtCommand::kStop, 1));
+  now();
+  drain();
+  send(fw::sdo_upload_initiate(1, 0x1000, 0));
+  now();
+  EXPECT_TRUE(only(0x581).empty());  // SDO only in Pre-operational and Operational
+  send(fw::encode_nmt(fw::NmtCommand::kResetNode, 1));
+  now();
+  EXPECT_EQ(only(0x701), (std::vector<fw::CanFrame>{frame(0x701, {0x00})}));
+  EXPECT_EQ(read(1, od::kDeviceType) & 0xFFFF, 402u);
+}
+
+// ---- PDO mapping with dummy entries (CiA 301 7.4.7.1: index 0002h..0007h = the static
+// data type, length its size) --------------------------------------------------------------
+
+struct DummyCase {
+  fw::DataType type;
+  std::uint8_t bits;
+};
+
+class EmulatorDummy : public EmulatorTest, public ::testing::WithParamInterface<DummyCase> {};
+
+TEST_P(EmulatorDummy, RpdoDummySkipsItsBytes) {
+  const DummyCase& c = GetParam();
+  power_on();
+  const auto rx = od::PdoDirection::kRpdo;
+  // RPDO2 of node 1 = [dummy of the type, 6071h target torque], acting on reception.
+  write(1, od::pdo_mapping_count(rx, 2), 0);
+  // Wrong length for the type: refused when the count is written (06040041h).
+  write(1, od::pdo_mapping_entry(rx, 2, 1),
+        (static_cast<std::uint32_t>(c.type) << 16) | static_cast<std::uint32_t>(c.bits + 8));
+  write(1, od::pdo_mapping_entry(rx, 2, 2), fw::encode_mapping(fw::map_entry(od::kTargetTorque)));
+  EXPECT_EQ(abort_code(sdo(1, fw::sdo_download_value(1, od::pdo_mapping_count(rx, 2), 2))),
+            0x06040041u);
+  // The right length: accepted.
+  write(1, od::pdo_mapping_entry(rx, 2, 1), (static_cast<std::uint32_t>(c.type) << 16) | c.bits);
+  write(1, od::pdo_mapping_count(rx, 2), 2);
+  write(1, od::pdo_transmission_type(rx, 2), fw::kTransmissionEventProfile);
+  write(1, od::pdo_cob_id(rx, 2), fw::pdo_cob_id_value(0x301, true));
+  send(fw::encode_nmt(fw::NmtCommand::kStart, 1));
+  now();
+  // The frame: dummy bytes 0xAA (ignored), then the torque 1234 = 04D2h LE.
+  fw::CanFrame f;
+  f.id = 0x301;
+  const std::size_t dummy_bytes = c.bits / 8;
+  f.dlc = static_cast<std::uint8_t>(dummy_bytes + 2);
+  for (std::size_t k = 0; k < dummy_bytes; ++k) f.data[k] = 0xAA;
+  f.data[dummy_bytes] = 0xD2;
+  f.data[dummy_bytes + 1] = 0x04;
+  send(f);
+  now();
+  EXPECT_EQ(emu->status(0).target_torque, 1234);
+  EXPECT_EQ(emu->status(0).counters.rpdos, 1u);
+  // A dummy in a TPDO is refused (06040041h): dummies only in RPDOs.
+  const auto tx = od::PdoDirection::kTpdo;
+  write(1, od::pdo_cob_id(tx, 3), fw::pdo_cob_id_value(0x381, false));
+  write(1, od::pdo_mapping_count(tx, 3), 0);
+  write(1, od::pdo_mapping_entry(tx, 3, 1), (static_cast<std::uint32_t>(c.type) << 16) | c.bits);
+  EXPECT_EQ(abort_code(sdo(1, fw::sdo_download_value(1, od::pdo_mapping_count(tx, 3), 1))),
+            0x06040041u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Cia301, EmulatorDummy,
+                         ::testing::Values(DummyCase{fw::DataType::kInteger8, 8},
+                                           DummyCase{fw::DataType::kInteger16, 16},
+                                           DummyCase{fw::DataType::kInteger32, 32},
+                                           DummyCase{fw::DataType::kUnsigned8, 8},
+                                           DummyCase{fw::DataType::kUnsigned16, 16},
+                                           DummyCase{fw::DataType::kUnsigned32, 32}),
+                         [](const ::testing::TestParamInfo<DummyCase>& i) {
+                           return "Dummy000" + std::to_string(static_cast<int>(i.param.type));
+                         });
+
+// ---- heartbeat consumer timing (CiA 301 7.2.8.3.2.2): at T - 1 nothing, at T the event --
+
+TEST_F(EmulatorTest, HeartbeatConsumerAtTMinusOneAndT) {
+  DriveEmulatorConfig c = default_config();
+  c.rpdo_watchdog_cycles = 0;  // no SYNC in this test: only the heartbeat consumer acts
+  c.free_run_after_ns = 0;
+  build(c);
+  to_operation_enabled();
+  write_all(od::consumer_heartbeat(1), fw::consumer_heartbeat_value(127, 100));
+  const std::uint64_t t0 = hub->now_ns();
+  send(fw::encode_heartbeat(127, fw::NmtState::kOperational));
+  at(t0);
+  drain();
+  at(t0 + 100 * kMs - 1);
+  EXPECT_TRUE(only(0x081).empty());
+  EXPECT_FALSE(emu->status(0).heartbeat_lost);
+  at(t0 + 100 * kMs);
+  EXPECT_TRUE(emu->status(0).heartbeat_lost);
+  // 8130h with 1001h = generic + communication (11h); then the 6007h reaction (quick stop).
+  EXPECT_EQ(only(0x081),
+            (std::vector<fw::CanFrame>{frame(0x081, {0x30, 0x81, 0x11, 0, 0, 0, 0, 0})}));
+  // The heartbeat back: EMCY 0000h with what remains in 1001h (nothing).
+  send(fw::encode_heartbeat(127, fw::NmtState::kOperational));
+  at(t0 + 101 * kMs);
+  EXPECT_EQ(only(0x081), (std::vector<fw::CanFrame>{frame(0x081, {0, 0, 0, 0, 0, 0, 0, 0})}));
 }
 
 }  // namespace
