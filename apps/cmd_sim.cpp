@@ -4,8 +4,12 @@
 //
 // Non-real-time loop: wait_readable (at most 0.5 ms) -> poll(CLOCK_MONOTONIC), so timers
 // (heartbeats, consumer timeouts, RPDO deadlines) have about 0.5 ms resolution; the plant
-// advances by the nominal SYNC period on each SYNC, so the physics do not depend on the
-// loop's jitter. Exits cleanly (status 0) on SIGINT/SIGTERM, --exit-after or
+// advances by the actual spacing of the SYNCs received (kernel receive timestamps), so it
+// moves in real time whatever period the master runs at. A foreign drive (a vendor stack
+// this project did not write) is emulated with --upload-without-size (expedited SDO
+// uploads e=1, s=0) and --absent OBJ (the drive lacks that object, e.g. 0x60C2); --foreign
+// sets both (uploads without size, no 60C2h). Exits cleanly (status 0) on SIGINT/SIGTERM,
+// --exit-after or
 // --exit-when-idle. Test hooks: --estop-after presses the e-stop input of every drive,
 // --fault-after raises a drive fault with an EMCY code, and so does SIGUSR1 (at a moment
 // a test chooses, e.g. while a program runs: drive --fault-drive, code --fault-code).
@@ -17,7 +21,10 @@
 #include <csignal>
 #include <cstdint>
 #include <cstdio>
+#include <memory>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "apps/commands.hpp"
 #include "apps/config_path.hpp"
@@ -50,6 +57,9 @@ struct SimArgs {
   int rpdo_watchdog = -1;
   double free_run_after = -1.0;
   bool segmented_upload = false;
+  bool upload_without_size = false;
+  std::vector<std::string> absent;
+  bool foreign = false;
 };
 
 void install_signal_handlers() {
@@ -88,6 +98,21 @@ int run_sim(const SimArgs& a) {
   if (a.free_run_after >= 0)
     emu_cfg.free_run_after_ns = static_cast<std::uint64_t>(std::llround(a.free_run_after * 1e9));
   emu_cfg.segmented_upload = a.segmented_upload;
+  emu_cfg.upload_without_size = a.upload_without_size || a.foreign;
+  std::vector<std::string> absent = a.absent;
+  if (a.foreign) absent.push_back("0x60C2");
+  for (const std::string& o : absent) {
+    unsigned long idx = 0x10000;
+    try {
+      idx = std::stoul(o, nullptr, 0);
+    } catch (const std::exception&) {
+    }
+    if (idx > 0xFFFF) {
+      fmt::print(stderr, "dualv sim: --absent {}: not an object index (e.g. 0x60C2)\n", o);
+      return 2;
+    }
+    emu_cfg.absent_objects.push_back(static_cast<std::uint16_t>(idx));
+  }
   unsigned long fault_code = 0;
   try {
     fault_code = std::stoul(a.fault_code, nullptr, 0);
@@ -108,7 +133,14 @@ int run_sim(const SimArgs& a) {
   drivers::SocketCanConfig bus_cfg;
   bus_cfg.interface = can.interface;
   drivers::SocketCanBus bus(bus_cfg);
-  sim::DriveEmulator emu(bus, plant, emu_cfg);
+  std::unique_ptr<sim::DriveEmulator> emu_owner;
+  try {
+    emu_owner = std::make_unique<sim::DriveEmulator>(bus, plant, emu_cfg);
+  } catch (const std::invalid_argument& e) {
+    fmt::print(stderr, "dualv sim: {}\n", e.what());
+    return 2;
+  }
+  sim::DriveEmulator& emu = *emu_owner;
 
   install_signal_handlers();
   std::string nodes;
@@ -118,6 +150,14 @@ int run_sim(const SimArgs& a) {
              emu.size(), nodes, can.interface, static_cast<double>(emu_cfg.sync_period_ns) * 1e-6,
              emu_cfg.rpdo_watchdog_cycles ? fmt::format("{} cycles", emu_cfg.rpdo_watchdog_cycles)
                                           : std::string("off"));
+  if (emu_cfg.upload_without_size || !emu_cfg.absent_objects.empty()) {
+    std::string objs;
+    for (std::uint16_t o : emu_cfg.absent_objects)
+      objs += fmt::format("{}{:04X}h", objs.empty() ? "" : ", ", o);
+    fmt::print("dualv sim: foreign drive: SDO uploads {}, objects absent: {}\n",
+               emu_cfg.upload_without_size ? "without size (e=1, s=0)" : "with size",
+               objs.empty() ? "none" : objs);
+  }
   std::fflush(stdout);
 
   using Clock = std::chrono::steady_clock;
@@ -228,6 +268,12 @@ void register_sim_command(CLI::App& app) {
                   "(0: never; default 0.05)");
   cmd->add_flag("--segmented-upload", args->segmented_upload,
                 "Answer every SDO upload with a segmented transfer");
+  cmd->add_flag("--upload-without-size", args->upload_without_size,
+                "Answer expedited SDO uploads without size indication (e=1, s=0)");
+  cmd->add_option("--absent", args->absent,
+                  "An object the drives lack (SDO abort 06020000h), e.g. 0x60C2; repeatable");
+  cmd->add_flag("--foreign", args->foreign,
+                "Emulate a foreign drive: --upload-without-size --absent 0x60C2");
   cmd->callback([args] { exit_code() = run_sim(*args); });
 }
 

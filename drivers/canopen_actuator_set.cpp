@@ -409,6 +409,66 @@ std::uint32_t CanopenActuatorSet::prime(canopen::Waiter& waiter, std::uint64_t t
   }
 }
 
+bool CanopenActuatorSet::shut_down(canopen::Waiter& waiter,
+                                   const std::function<void(const std::string&)>& log, int cycles) {
+  auto say = [&log](const std::string& line) {
+    if (log) log(line);
+  };
+  if (bus_off_) {
+    say("shutdown: CAN bus-off, nothing can be sent; the drives react to the silence (6007h)");
+    return false;
+  }
+  ActuatorFeedback fb;
+  ActuatorCommand off;
+  off.n = n_;
+  off.request = DriveRequest::kDisable;  // torque 0: torque_allowed is false when disabling
+  cycles = std::max(cycles, 1);
+  for (int k = 0; k < cycles; ++k) {
+    (void)write(off);
+    const std::uint64_t next = clock_.now_ns() + config_.sync_period_ns;
+    while (clock_.now_ns() < next) waiter.wait_until(next);
+    (void)read(fb);
+  }
+  bool all_disabled = true;
+  std::string states;
+  for (int i = 0; i < n_; ++i) {
+    const Cia402Drive& d = drives_[i];
+    const bool disabled = d.known() && d.state() != fw::Cia402State::kOperationEnabled &&
+                          d.state() != fw::Cia402State::kQuickStopActive;
+    all_disabled = all_disabled && disabled;
+    states += fmt::format("{}node {}: {}", states.empty() ? "" : ", ",
+                          config_.drives[static_cast<std::size_t>(i)].node_id,
+                          d.known() ? fw::to_string(d.state()) : "no statusword");
+  }
+  say(
+      fmt::format("shutdown: target torque 0 and disable voltage (controlword {:04X}h) for {} "
+                  "SYNC cycles: {}",
+                  fw::apply(fw::Command::kDisableVoltage, 0), cycles, states));
+  fw::NmtCommand nmt = fw::NmtCommand::kEnterPreOperational;
+  switch (config_.on_exit) {
+    case OnExit::kPreOperational:
+      nmt = fw::NmtCommand::kEnterPreOperational;
+      break;
+    case OnExit::kStopped:
+      nmt = fw::NmtCommand::kStop;
+      break;
+    case OnExit::kOperationalDisabled:
+      say("shutdown: drives left NMT Operational with the voltage disabled (can.on_exit: "
+          "operational_disabled)");
+      return all_disabled;
+  }
+  std::string sent;
+  for (int i = 0; i < n_; ++i) {
+    const std::uint8_t id = config_.drives[static_cast<std::size_t>(i)].node_id;
+    const fw::Result<fw::CanFrame> f = fw::encode_nmt(nmt, id);
+    const bool ok = f && send(*f) == BusStatus::kOk;
+    sent += fmt::format("{}{}{}", sent.empty() ? "" : ", ", id, ok ? "" : " (send failed)");
+  }
+  say(fmt::format("shutdown: NMT {} sent to node{} {} (can.on_exit: {})", fw::to_string(nmt),
+                  n_ > 1 ? "s" : "", sent, to_string(config_.on_exit)));
+  return all_disabled;
+}
+
 void CanopenActuatorSet::service() noexcept {
   const std::uint64_t now = clock_.now_ns();
   if (bus_off_) return;

@@ -37,6 +37,7 @@
 // constructor and prime()/service() are set-up code.
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 
 #include "drivers/actuator_set.hpp"
@@ -153,6 +154,17 @@ class CanopenActuatorSet final : public ActuatorSet {
   // Non-RT idle service between set-up and the loop: drains frames and keeps the master's
   // heartbeat going (the drives watch it), without SYNC or RPDOs.
   void service() noexcept;
+
+  // Set-up code, after the loop (issue 13 defect 6): leaves the drives in a defined state.
+  // `cycles` cycles (at least 1) of disable voltage with target torque 0, each with its
+  // SYNC (so drives with synchronous RPDOs act on them), one SYNC period apart, paced by
+  // `waiter`; then NMT as can.on_exit says: enter pre-operational (PDOs stop, SDO stays),
+  // stop, or nothing (operational, voltage disabled). Every step is logged (one line each,
+  // naming the drives and the CiA 402 state each reported). Never throws for a drive that
+  // does not answer (it is named in the log); on bus-off only the log line is written.
+  // Returns true when every drive reported a disabled state (not Operation enabled).
+  bool shut_down(canopen::Waiter& waiter, const std::function<void(const std::string&)>& log,
+                 int cycles = 5);
 
   // Bus-off: latched until recover_bus() succeeds (it restarts the controller, which
   // discards everything queued before the fault). Afterwards every drive is disabled and

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "common/yaml_reader.hpp"
+#include "firmware_if/units.hpp"
 
 namespace dualv::drivers {
 
@@ -18,6 +19,47 @@ std::uint64_t to_ns(double s) {
 }
 double to_s(std::uint64_t ns) { return static_cast<double>(ns) / kNsPerS; }
 bool whole_ms(std::uint64_t ns) { return ns % 1'000'000 == 0; }
+
+// can.drives[i].max_torque against the drive's peak and the safety clamp.
+void check_torque(const CanConfig& c, double safety_max, std::vector<std::string>& p) {
+  for (std::size_t i = 0; i < c.drives.size(); ++i) {
+    const CanDriveConfig& d = c.drives[i];
+    if (!(d.max_torque > 0.0) || !(d.rated_torque > 0.0) || !(d.peak_torque > 0.0)) continue;
+    // Compared as 6072h would carry them: per mille of the rated torque 6076h.
+    const std::uint16_t max_pm = fw::max_torque_per_mille(d.max_torque, d.rated_torque);
+    const std::uint16_t peak_pm = fw::max_torque_per_mille(d.peak_torque, d.rated_torque);
+    if (max_pm > peak_pm)
+      p.push_back(fmt::format(
+          "can.drives[{}].max_torque: {} N m (6072h = {} per mille of 6076h = {} N m) is above "
+          "the drive's peak can.drives[{}].peak_torque = {} N m ({} per mille)",
+          i, d.max_torque, max_pm, d.rated_torque, i, d.peak_torque, peak_pm));
+    if (safety_max > 0.0 && d.max_torque > safety_max)
+      p.push_back(fmt::format(
+          "can.drives[{}].max_torque: {} N m is above the safety limit safety.torque.max = {} N m: "
+          "the drive would allow more than the safety layer ever commands",
+          i, d.max_torque, safety_max));
+  }
+}
+
+// The safety consequences of skipping objects (drivers/canopen/README.md "Boot objects"):
+// a drive that may lack 6007h must watch the host through its heartbeat consumer 1016h (or
+// nothing would stop it when the host dies in a way 6007h's default does not cover); a
+// drive that may lack 1016h must have 6007h and the RPDO deadline (1400h sub5).
+void check_objects(const BootObjects& o, const std::string& key, const CanConfig& c,
+                   std::vector<std::string>& p) {
+  if (o.abort_connection != ObjectPolicy::kRequired &&
+      o.consumer_heartbeat != ObjectPolicy::kRequired)
+    p.push_back(fmt::format(
+        "{}.consumer_heartbeat: must be required when {}.abort_connection is {}: without 6007h "
+        "the drive's heartbeat consumer of the host (1016h) is what stops it when the host is "
+        "gone",
+        key, key, to_string(o.abort_connection)));
+  if (o.consumer_heartbeat != ObjectPolicy::kRequired && c.rpdo_deadline_ns == 0)
+    p.push_back(fmt::format(
+        "{}.consumer_heartbeat: {} needs can.rpdo_deadline > 0: without 1016h only the RPDO "
+        "deadline (1400h sub5) stops the drive when the host is gone",
+        key, to_string(o.consumer_heartbeat)));
+}
 
 // The semantic rules, on the parsed values; one message per broken rule, naming the key.
 void check(const CanConfig& c, std::vector<std::string>& p) {
@@ -96,25 +138,49 @@ void check(const CanConfig& c, std::vector<std::string>& p) {
     else if (d.rated_torque > 0.0 && d.max_torque * 1000.0 / d.rated_torque > 65535.0)
       add(fmt::format("{}.max_torque: {} N m is more than 65535 per mille of rated torque", k,
                       d.max_torque));
+    if (!(d.peak_torque > 0.0))
+      add(fmt::format("{}.peak_torque: must be > 0 N m (got {})", k, d.peak_torque));
+    check_objects(d.objects, k + ".objects", c, p);
   }
+  check_torque(c, 0.0, p);
+}
+
+ObjectPolicy read_policy(YamlReader& r, const std::string& key, ObjectPolicy fallback,
+                         const std::string& path) {
+  const std::string v = r.string(key, std::string(to_string(fallback)));
+  if (v == "required") return ObjectPolicy::kRequired;
+  if (v == "optional") return ObjectPolicy::kOptional;
+  if (v == "off") return ObjectPolicy::kOff;
+  r.problem(fmt::format("{}.{}: must be required, optional or off (got '{}')", path, key, v));
+  return fallback;
+}
+
+BootObjects read_objects(YamlReader& parent, const BootObjects& fallback, const std::string& path) {
+  BootObjects o = fallback;
+  if (!parent.has("objects")) return o;
+  YamlReader r = parent.child("objects");
+  const std::string p = path + ".objects";
+  o.cycle_period = read_policy(r, "cycle_period", o.cycle_period, p);
+  o.interpolation_period = read_policy(r, "interpolation_period", o.interpolation_period, p);
+  o.abort_connection = read_policy(r, "abort_connection", o.abort_connection, p);
+  o.quick_stop = read_policy(r, "quick_stop", o.quick_stop, p);
+  o.fault_reaction = read_policy(r, "fault_reaction", o.fault_reaction, p);
+  o.consumer_heartbeat = read_policy(r, "consumer_heartbeat", o.consumer_heartbeat, p);
+  o.digital_inputs = read_policy(r, "digital_inputs", o.digital_inputs, p);
+  r.reject_unknown_keys();
+  return o;
 }
 
 }  // namespace
 
-int CanConfig::drive_of_node(std::uint8_t node) const noexcept {
-  for (std::size_t i = 0; i < drives.size(); ++i)
-    if (drives[i].node_id == node) return static_cast<int>(i);
-  return -1;
-}
-
 CanConfig default_can_config() {
   CanConfig c;
   for (std::uint8_t id = 1; id <= 4; ++id)
-    c.drives.push_back(CanDriveConfig{id, 1u << 20, 50.0, 60.0, 0});
+    c.drives.push_back(CanDriveConfig{id, 1u << 20, 50.0, 60.0, 127.0, 0, BootObjects{}});
   return c;
 }
 
-CanConfig load_can_config(const YAML::Node& can_node) {
+CanConfig load_can_config(const YAML::Node& can_node, double safety_torque_max) {
   ConfigProblems problems;
   CanConfig c = default_can_config();
   YamlReader r(can_node, "can", problems.sink());
@@ -182,10 +248,27 @@ CanConfig load_can_config(const YAML::Node& can_node) {
     o.reject_unknown_keys();
   }
   c.check_drive_parameters = r.boolean("check_drive_parameters", c.check_drive_parameters);
+  {
+    const std::string on_exit = r.string("on_exit", to_string(c.on_exit));
+    if (on_exit == "preoperational")
+      c.on_exit = OnExit::kPreOperational;
+    else if (on_exit == "stopped")
+      c.on_exit = OnExit::kStopped;
+    else if (on_exit == "operational_disabled")
+      c.on_exit = OnExit::kOperationalDisabled;
+    else
+      r.problem(fmt::format(
+          "can.on_exit: must be preoperational, stopped or operational_disabled (got '{}')",
+          on_exit));
+  }
+  const BootObjects objects = read_objects(r, BootObjects{}, "can");
+  for (CanDriveConfig& d : c.drives) d.objects = objects;
   if (r.has("drives")) {
     c.drives.clear();
+    std::size_t index = 0;
     for (YamlReader& d : r.children("drives")) {
       CanDriveConfig dc;
+      dc.objects = read_objects(d, objects, fmt::format("can.drives[{}]", index++));
       const int id = d.integer("node_id");
       dc.node_id = id >= 0 && id <= 255 ? static_cast<std::uint8_t>(id) : 0;
       const int cpr =
@@ -193,6 +276,7 @@ CanConfig load_can_config(const YAML::Node& can_node) {
       dc.counts_per_revolution = cpr > 0 ? static_cast<std::uint32_t>(cpr) : 0;
       dc.rated_torque = d.number("rated_torque", dc.rated_torque);
       dc.max_torque = d.number("max_torque", dc.max_torque);
+      dc.peak_torque = d.number("peak_torque", dc.peak_torque);
       dc.zero_offset = d.integer("zero_offset", 0);
       d.reject_unknown_keys();
       c.drives.push_back(dc);
@@ -202,13 +286,38 @@ CanConfig load_can_config(const YAML::Node& can_node) {
   }
   r.reject_unknown_keys();
   check(c, *problems.sink());
+  if (safety_torque_max > 0.0) {
+    std::vector<std::string> torque;
+    check_torque(c, safety_torque_max, torque);
+    // check() already named the peak problems: add only the safety ones.
+    for (std::string& m : torque)
+      if (m.find("safety.torque.max") != std::string::npos) problems.sink()->push_back(m);
+  }
   problems.finish();
   return c;
 }
 
+double safety_torque_max_of(const YAML::Node& root) {
+  constexpr double kSafetyDefault = 60.0;  // safety/safety_config.hpp torque.max
+  const YAML::Node n = root["safety"];
+  if (!n || !n.IsMap() || !n["torque"] || !n["torque"].IsMap() || !n["torque"]["max"])
+    return kSafetyDefault;
+  try {
+    return n["torque"]["max"].as<double>();
+  } catch (const YAML::Exception&) {
+    return kSafetyDefault;  // the safety loader names the bad key
+  }
+}
+
 CanConfig load_can_config_file(const std::string& path) {
   const YAML::Node root = YamlReader::load_file(path);
-  return load_can_config(root["can"]);
+  return load_can_config(root["can"], safety_torque_max_of(root));
+}
+
+void check_torque_limits(const CanConfig& config, double safety_torque_max) {
+  std::vector<std::string> p;
+  check_torque(config, safety_torque_max, p);
+  if (!p.empty()) throw ConfigError(p);
 }
 
 void validate(const CanConfig& config) {

@@ -26,7 +26,8 @@ std::unique_ptr<CanopenActuatorSet> boot_actuator_set(
     if (log)
       log(fmt::format("booting {} drives (NMT reset, SDO configuration, NMT start)",
                       config.size()));
-    canopen::boot_drives(master, config);
+    const std::vector<canopen::SkippedObject> skipped = canopen::boot_drives(master, config, log);
+    if (log && skipped.empty()) log("every configured object written and read back");
   }
   auto set = std::make_unique<CanopenActuatorSet>(bus, clock, config);
   const std::uint32_t missing = set->prime(waiter, config.boot_timeout_ns);
@@ -43,6 +44,11 @@ std::unique_ptr<CanopenActuatorSet> boot_actuator_set(
   }
   if (log) log("drives booted: Operational, voltage disabled, positions read");
   return set;
+}
+
+bool CanopenDrives::shut_down(const std::function<void(const std::string&)>& log, int cycles) {
+  canopen::SocketCanWaiter waiter(*bus_, *clock_);
+  return actuators_->shut_down(waiter, log, cycles);
 }
 
 std::unique_ptr<CanopenDrives> open_canopen_drives(const CanConfig& config,

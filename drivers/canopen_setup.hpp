@@ -45,6 +45,9 @@ class CanopenDrives {
       : bus_(std::move(bus)), clock_(std::move(clock)), actuators_(std::move(actuators)) {}
   CanopenActuatorSet& actuators() noexcept { return *actuators_; }
   SocketCanBus& bus() noexcept { return *bus_; }
+  // After the loop: torque 0 + disable voltage for a few SYNC cycles, then NMT as
+  // can.on_exit says, each step logged (CanopenActuatorSet::shut_down). Not real-time.
+  bool shut_down(const std::function<void(const std::string&)>& log, int cycles = 5);
   const canopen::Clock& clock() const noexcept { return *clock_; }
 
  private:

@@ -125,7 +125,9 @@ Cia402Output Cia402Drive::update(DriveRequest request, std::uint64_t now_ns) noe
                   : Cia402Goal::kSwitchOnDisabled;
       break;
     case DriveRequest::kFaultReset:
-      if (edge && known_ && state_ == Cia402State::kFault && reset_phase_ == ResetPhase::kIdle) {
+      // A new request restarts a reset still in progress (bit 7 low, then high again): a
+      // drive that refused the first edge while its fault's cause remained sees a new one.
+      if (edge && known_ && state_ == Cia402State::kFault) {
         reset_phase_ = ResetPhase::kLow;
         goal_ = Cia402Goal::kSwitchOnDisabled;
         state_since_ns_ = now_ns;

@@ -18,8 +18,9 @@
 //    transition timeout nothing is retried until the request is given again. kDisable and
 //    kQuickStop act every cycle they are given.
 //  - In Fault, only kFaultReset acts (bit 7 low for one cycle, then high until the drive
-//    leaves Fault or the transition times out); after it the drive stays in Switch on
-//    disabled: a reset never restarts motion by itself.
+//    leaves Fault or the transition times out; a new kFaultReset request restarts it, so a
+//    drive that refused the edge while the fault's cause remained gets a new one); after it
+//    the drive stays in Switch on disabled: a reset never restarts motion by itself.
 //  - A transition that does not happen within the timeout (time spent in one state while
 //    walking) is reported (transition_timed_out()), the goal is dropped and the
 //    controlword becomes disable voltage.

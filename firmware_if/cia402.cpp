@@ -1,5 +1,7 @@
 #include "firmware_if/cia402.hpp"
 
+#include <array>
+
 namespace dualv::fw {
 
 const char* to_string(Cia402State s) noexcept {
@@ -48,77 +50,36 @@ namespace {
 
 using S = Cia402State;
 
-// Transition number for one step from `from` towards `target`; 0 = none. Shortest paths
-// through host-commanded transitions (figure 22), 16 deliberately unused (see header).
-constexpr std::uint8_t step(S from, S target) noexcept {
+constexpr int index_of(S s) noexcept { return static_cast<int>(s); }
+constexpr int kStates = 8;
+
+// Transition number for one step from `from` towards `target`; 0 = none: the first step of
+// a shortest path through the host-commanded transitions of kTransitions (breadth first,
+// in table order), 15 from Fault, 16 deliberately unused (see the header).
+std::uint8_t step(S from, S target) noexcept {
   if (from == target) return 0;
-  switch (from) {
-    case S::kNotReadyToSwitchOn:
-    case S::kFaultReactionActive:
-      return 0;  // the drive moves on its own (1, 14)
-    case S::kFault:
-      return 15;
-    default:
-      break;
+  if (from == S::kFault) return 15;
+  // Quick stop active is a target only from Operation enabled (11): a drive not enabled is
+  // never enabled just to be quick-stopped.
+  if (target == S::kQuickStopActive && from != S::kOperationEnabled) return 0;
+  // Breadth first from `target` backwards: dist[s] = commanded steps from s to target.
+  std::array<int, 16> dist{};
+  dist.fill(-1);
+  dist[static_cast<std::size_t>(index_of(target))] = 0;
+  for (int d = 0; d < kStates; ++d)
+    for (const Transition& t : kTransitions) {
+      if (!t.command || t.number == 15 || t.number == 16) continue;
+      if (dist[static_cast<std::size_t>(index_of(t.to))] == d &&
+          dist[static_cast<std::size_t>(index_of(t.from))] < 0)
+        dist[static_cast<std::size_t>(index_of(t.from))] = d + 1;
+    }
+  const int here = dist[static_cast<std::size_t>(index_of(from))];
+  if (here <= 0) return 0;
+  for (const Transition& t : kTransitions) {
+    if (!t.command || t.number == 15 || t.number == 16 || t.from != from) continue;
+    if (dist[static_cast<std::size_t>(index_of(t.to))] == here - 1) return t.number;
   }
-  switch (target) {
-    case S::kSwitchOnDisabled:
-      switch (from) {
-        case S::kReadyToSwitchOn:
-          return 7;
-        case S::kSwitchedOn:
-          return 10;
-        case S::kOperationEnabled:
-          return 9;
-        case S::kQuickStopActive:
-          return 12;
-        default:
-          return 0;
-      }
-    case S::kReadyToSwitchOn:
-      switch (from) {
-        case S::kSwitchOnDisabled:
-          return 2;
-        case S::kSwitchedOn:
-          return 6;
-        case S::kOperationEnabled:
-          return 8;
-        case S::kQuickStopActive:
-          return 12;
-        default:
-          return 0;
-      }
-    case S::kSwitchedOn:
-      switch (from) {
-        case S::kSwitchOnDisabled:
-          return 2;
-        case S::kReadyToSwitchOn:
-          return 3;
-        case S::kOperationEnabled:
-          return 5;
-        case S::kQuickStopActive:
-          return 12;
-        default:
-          return 0;
-      }
-    case S::kOperationEnabled:
-      switch (from) {
-        case S::kSwitchOnDisabled:
-          return 2;
-        case S::kReadyToSwitchOn:
-          return 3;
-        case S::kSwitchedOn:
-          return 4;
-        case S::kQuickStopActive:
-          return 12;
-        default:
-          return 0;
-      }
-    case S::kQuickStopActive:
-      return from == S::kOperationEnabled ? 11 : 0;
-    default:
-      return 0;  // Not ready, Fault reaction active, Fault: not commandable targets
-  }
+  return 0;
 }
 
 }  // namespace

@@ -186,7 +186,38 @@ constexpr std::optional<Transition> find_transition(std::uint8_t number) noexcep
   return std::nullopt;
 }
 
-// The host-commanded transition that moves a drive in `from` one step towards `target`.
+// kTransitions is the one owner of the state machine: the host side (next_transition, and
+// through it drivers/cia402_drive.hpp) and the drive side (slave_transition: the drive
+// emulator sim/drive_emulator.cpp and the tests' fake slave) are both derived from it.
+
+// Whether a drive that reads command `c` in `t.from` takes `t` (CiA 402-2 table 29: quick
+// stop also gives 7 and 10 outside Operation enabled; switch on and disable operation are
+// the same bits, so kSwitchOn also gives 5).
+constexpr bool takes(const Transition& t, Command c) noexcept {
+  if (!t.command) return false;
+  if (*t.command == c) return true;
+  if (c == Command::kQuickStop && (t.number == 7 || t.number == 10)) return true;
+  if (c == Command::kSwitchOn && *t.command == Command::kDisableOperation) return true;
+  if (c == Command::kDisableOperation && *t.command == Command::kSwitchOn) return true;
+  // Enable operation contains switch on's bits: from Ready to switch on it gives 3.
+  return c == Command::kEnableOperation && t.number == 3;
+}
+
+// The drive side: the transition a drive in `from` makes when its controlword expresses `c`
+// (decode_command). Transition 16 only when `quick_stop_stays` (605Ah 5..8: the drive stays
+// in Quick stop active and may be re-enabled); 15 is not a command here (bit 7's rising
+// edge, which the drive tracks). nullopt: the command changes nothing in that state.
+constexpr std::optional<Transition> slave_transition(Cia402State from, Command c,
+                                                     bool quick_stop_stays = false) noexcept {
+  for (const Transition& t : kTransitions) {
+    if (t.from != from || t.number == 15 || (t.number == 16 && !quick_stop_stays)) continue;
+    if (takes(t, c)) return t;
+  }
+  return std::nullopt;
+}
+
+// The host side: the host-commanded transition that moves a drive in `from` one step
+// towards `target`, the first step of a shortest path through kTransitions.
 // nullopt when from == target, when only the drive can move (Not ready to switch on,
 // Fault reaction active), or when `target` is not a state the host can command (Not ready,
 // Fault reaction active, Fault; Quick stop active from anywhere but Operation enabled).

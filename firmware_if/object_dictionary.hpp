@@ -85,9 +85,14 @@ constexpr OdEntry consumer_heartbeat(std::uint8_t sub) noexcept {
 }
 inline constexpr OdEntry kProducerHeartbeat{0x1017, 0,     kUnsigned16,
                                             kRw,    false, "producer heartbeat time (ms)"};
-// 1018h identity: sub1 vendor id, sub2 product code, sub3 revision, sub4 serial.
+// 1018h identity: sub0 highest sub-index supported, sub1 vendor id, sub2 product code,
+// sub3 revision, sub4 serial.
+inline constexpr OdEntry kIdentityCount{0x1018, 0,     kUnsigned8,
+                                        kConst, false, "identity: highest sub-index supported"};
 inline constexpr OdEntry kIdentityVendorId{0x1018, 1, kUnsigned32, kRo, false, "vendor-ID"};
 inline constexpr OdEntry kIdentityProductCode{0x1018, 2, kUnsigned32, kRo, false, "product code"};
+inline constexpr OdEntry kIdentityRevision{0x1018, 3, kUnsigned32, kRo, false, "revision number"};
+inline constexpr OdEntry kIdentitySerial{0x1018, 4, kUnsigned32, kRo, false, "serial number"};
 // 1019h: SYNC counter overflow value; 0 = SYNC without counter (DLC 0), 2..240 = counter.
 inline constexpr OdEntry kSyncCounterOverflow{0x1019, 0,     kUnsigned8,
                                               kRw,    false, "synchronous counter overflow value"};
@@ -99,7 +104,7 @@ inline constexpr std::uint16_t kRpdoCommunicationBase = 0x1400;
 inline constexpr std::uint16_t kRpdoMappingBase = 0x1600;
 inline constexpr std::uint16_t kTpdoCommunicationBase = 0x1800;
 inline constexpr std::uint16_t kTpdoMappingBase = 0x1A00;
-// Communication record subindices.
+// Communication record subindices (sub0: highest sub-index supported, u8 const).
 inline constexpr std::uint8_t kPdoSubCobId = 1;             // u32, see pdo.hpp pdo_cob_id_value
 inline constexpr std::uint8_t kPdoSubTransmissionType = 2;  // u8, see pdo.hpp kTransmission*
 inline constexpr std::uint8_t kPdoSubInhibitTime = 3;       // u16, 100 us units (TPDO)
@@ -115,6 +120,16 @@ constexpr std::uint16_t pdo_communication_index(PdoDirection d, std::uint8_t pdo
 constexpr std::uint16_t pdo_mapping_index(PdoDirection d, std::uint8_t pdo_number) noexcept {
   return static_cast<std::uint16_t>(
       (d == PdoDirection::kRpdo ? kRpdoMappingBase : kTpdoMappingBase) + pdo_number - 1);
+}
+// Sub0 of a communication record: the highest sub-index the device supports (CiA 301
+// 7.5.2.35 / 7.5.2.37), 5 when the event timer is the last one implemented.
+constexpr OdEntry pdo_communication_count(PdoDirection d, std::uint8_t n) noexcept {
+  return OdEntry{pdo_communication_index(d, n),
+                 0,
+                 kUnsigned8,
+                 kConst,
+                 false,
+                 "PDO communication: highest sub-index supported"};
 }
 constexpr OdEntry pdo_cob_id(PdoDirection d, std::uint8_t n) noexcept {
   return OdEntry{
@@ -173,13 +188,18 @@ inline constexpr OdEntry kMaxTorque{0x6072, 0, kUnsigned16, kRw, true, "max torq
 inline constexpr OdEntry kRatedTorque{0x6076, 0,     kUnsigned32,
                                       kRw,    false, "motor rated torque (mN m)"};
 inline constexpr OdEntry kTorqueActual{0x6077, 0, kInteger16, kRo, true, "torque actual value"};
-// 608Fh position encoder resolution = encoder increments (sub1) / motor revolutions (sub2).
+// 608Fh position encoder resolution = encoder increments (sub1) / motor revolutions (sub2);
+// sub0 = 2, the highest sub-index (a record, CiA 402-2).
+inline constexpr OdEntry kEncoderResolutionCount{
+    0x608F, 0, kUnsigned8, kConst, false, "position encoder resolution: highest sub-index"};
 inline constexpr OdEntry kEncoderIncrements{
     0x608F, 1, kUnsigned32, kRw, false, "position encoder resolution: encoder increments"};
 inline constexpr OdEntry kEncoderMotorRevolutions{
     0x608F, 2, kUnsigned32, kRw, false, "position encoder resolution: motor revs"};
 // 60C2h interpolation time period: value (sub1, u8) x 10^index (sub2, i8) s; the cyclic
-// synchronous modes use it as the expected SYNC period.
+// synchronous modes use it as the expected SYNC period. sub0 = 2 (a record).
+inline constexpr OdEntry kInterpolationPeriodCount{
+    0x60C2, 0, kUnsigned8, kConst, false, "interpolation time period: highest sub-index"};
 inline constexpr OdEntry kInterpolationPeriodValue{
     0x60C2, 1, kUnsigned8, kRw, false, "interpolation time period value"};
 inline constexpr OdEntry kInterpolationPeriodIndex{0x60C2, 2,     kInteger8,
@@ -204,8 +224,11 @@ inline constexpr OdEntry kAll[] = {
     kCobIdEmcy,
     kConsumerHeartbeatCount,
     kProducerHeartbeat,
+    kIdentityCount,
     kIdentityVendorId,
     kIdentityProductCode,
+    kIdentityRevision,
+    kIdentitySerial,
     kSyncCounterOverflow,
     kAbortConnectionOption,
     kErrorCode,
@@ -224,8 +247,10 @@ inline constexpr OdEntry kAll[] = {
     kMaxTorque,
     kRatedTorque,
     kTorqueActual,
+    kEncoderResolutionCount,
     kEncoderIncrements,
     kEncoderMotorRevolutions,
+    kInterpolationPeriodCount,
     kInterpolationPeriodValue,
     kInterpolationPeriodIndex,
     kDigitalInputs,

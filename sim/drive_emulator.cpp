@@ -2,9 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <stdexcept>
 #include <string>
+
+#include "sim/canopen/object_dictionary.hpp"
+#include "sim/canopen/sdo_server.hpp"
 
 namespace dualv::sim {
 
@@ -15,27 +19,14 @@ using fw::OdEntry;
 using fw::SdoAbortCode;
 using fw::od::PdoDirection;
 
-constexpr std::size_t kOdCapacity = 160;
 constexpr std::uint32_t kNoAbort = 0;
 
 constexpr std::uint32_t abort_value(SdoAbortCode c) noexcept {
   return static_cast<std::uint32_t>(c);
 }
 
-constexpr std::uint32_t mask_of(const OdEntry& e) noexcept {
-  return e.size() >= 4 ? 0xFFFFFFFFu : ((1u << e.bits()) - 1u);
-}
-
-constexpr std::int32_t as_signed(std::uint32_t raw, std::uint8_t size) noexcept {
-  switch (size) {
-    case 1:
-      return static_cast<std::int8_t>(raw & 0xFFu);
-    case 2:
-      return static_cast<std::int16_t>(raw & 0xFFFFu);
-    default:
-      return static_cast<std::int32_t>(raw);
-  }
-}
+using canopen::as_signed;
+using canopen::mask_of;
 
 // 1001h error register bits for an EMCY error code's class (CiA 301 7.5.2.2).
 constexpr std::uint8_t error_register_for(std::uint16_t code) noexcept {
@@ -58,12 +49,6 @@ constexpr std::uint8_t error_register_for(std::uint16_t code) noexcept {
   }
   return r;
 }
-
-struct Slot {
-  OdEntry entry{};
-  std::uint32_t value = 0;
-  std::uint32_t initial = 0;
-};
 
 struct MapRef {
   int slot = -1;  // -1: dummy entry (RPDO only)
@@ -91,7 +76,26 @@ struct Pdo {
   bool deadline_armed = false;
 };
 
-enum class SdoState : std::uint8_t { kIdle, kDownload, kUpload };
+// The objects a foreign drive may lack (DriveEmulatorConfig::absent_objects).
+bool may_be_absent(std::uint16_t index) noexcept {
+  switch (index) {
+    case 0x1006:
+    case 0x1019:
+    case 0x6007:
+    case 0x605A:
+    case 0x605B:
+    case 0x605C:
+    case 0x605D:
+    case 0x605E:
+    case 0x606C:
+    case 0x6077:
+    case 0x60C2:
+    case 0x60FD:
+      return true;
+    default:
+      return false;
+  }
+}
 
 bool is_pdo_parameter(std::uint16_t index) noexcept {
   return (index >= fw::od::kRpdoCommunicationBase &&
@@ -141,11 +145,19 @@ void DriveEmulatorConfig::validate(int plant_joints) const {
     if (d.rated_torque_mnm == 0) fail(who + ": rated torque must be > 0");
   }
   if (sync_period_ns == 0) fail("SYNC period must be > 0");
+  for (std::uint16_t idx : absent_objects)
+    if (!may_be_absent(idx)) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "%04Xh", idx);
+      fail(std::string("object ") + buf +
+           " cannot be left out: only 1006h, 1019h, 6007h, 605Ah..605Eh, 606Ch, 6077h, 60C2h "
+           "and 60FDh are optional for a CiA 402 cyclic synchronous torque drive");
+    }
 }
 
-DriveEmulatorConfig emulator_config_from(const drivers::CanConfig& can) {
+DriveEmulatorConfig emulator_config_from(const fw::CanConfig& can) {
   DriveEmulatorConfig c;
-  for (const drivers::CanDriveConfig& d : can.drives) {
+  for (const fw::CanDriveConfig& d : can.drives) {
     DriveEmulatorDrive e;
     e.node_id = d.node_id;
     e.counts_per_revolution = d.counts_per_revolution;
@@ -196,8 +208,7 @@ struct DriveEmulator::Drive {
   std::uint8_t node = 1;
   DriveEmulatorDrive cfg{};
 
-  std::array<Slot, kOdCapacity> od{};
-  std::size_t od_count = 0;
+  canopen::ObjectDictionary dict;
   // Slots of the objects the emulator acts on.
   int s_cw = -1, s_sw = -1, s_tt = -1, s_mode = -1, s_mode_disp = -1, s_pos = -1, s_vel = -1,
       s_torque = -1, s_din = -1, s_err = -1, s_err_reg = -1, s_hb_prod = -1, s_abort = -1,
@@ -221,6 +232,12 @@ struct DriveEmulator::Drive {
   std::array<bool, kEmulatedConsumerHeartbeats> hb_armed{};
   std::array<bool, kEmulatedConsumerHeartbeats> hb_lost{};
 
+  // Error conditions behind the error register 1001h (each sends its EMCY when it starts
+  // and EMCY 0000h with the remaining register when it is gone, CiA 301 7.2.7.1).
+  bool pdo_length_error = false;  // 8210h: an RPDO shorter than its mapping
+  bool deadline_error = false;    // 8250h: the RPDO deadline (1400h sub5) expired
+  bool fault_cause = false;       // hold_fault(): transition 15 refused while set
+
   // RPDO watchdog.
   bool wd_armed = false;
   bool torque_rx_since_sync = false;
@@ -235,44 +252,26 @@ struct DriveEmulator::Drive {
   std::int32_t encoder_offset = 0;
   std::uint32_t hw_inputs = 0;  // 60FDh as wired
 
-  // SDO server.
-  SdoState sdo = SdoState::kIdle;
-  int sdo_slot = -1;
-  std::array<std::uint8_t, 16> sdo_rx{};
-  fw::SdoSegmentReceiver receiver{std::span<std::uint8_t>(sdo_rx)};
-  std::array<std::uint8_t, 4> sdo_tx{};
-  fw::SdoSegmentSender sender{};
+  canopen::SdoServer sdo_server;
 
   EmulatedDriveCounters counters{};
 
-  // ---- dictionary ----
-  int find(std::uint16_t idx, std::uint8_t sub) const noexcept {
-    for (std::size_t i = 0; i < od_count; ++i)
-      if (od[i].entry.index == idx && od[i].entry.subindex == sub) return static_cast<int>(i);
-    return -1;
-  }
-  int find(const OdEntry& e) const noexcept { return find(e.index, e.subindex); }
-  bool has_index(std::uint16_t idx) const noexcept {
-    for (std::size_t i = 0; i < od_count; ++i)
-      if (od[i].entry.index == idx) return true;
-    return false;
-  }
-  int add(const OdEntry& e, std::uint32_t initial) {
-    if (od_count >= od.size()) throw std::logic_error("drive emulator: dictionary full");
-    od[od_count] = Slot{e, initial & mask_of(e), initial & mask_of(e)};
-    return static_cast<int>(od_count++);
-  }
-  std::uint32_t u(int slot) const noexcept { return slot >= 0 ? od[slot].value : 0; }
-  std::int32_t i(int slot) const noexcept {
-    return slot >= 0 ? as_signed(od[slot].value, od[slot].entry.size()) : 0;
-  }
-  void set(int slot, std::uint32_t v) noexcept {
-    if (slot >= 0) od[slot].value = v & mask_of(od[slot].entry);
-  }
+  // ---- dictionary (sim/canopen/object_dictionary.hpp) ----
+  int find(std::uint16_t idx, std::uint8_t sub) const noexcept { return dict.find(idx, sub); }
+  int find(const OdEntry& e) const noexcept { return dict.find(e); }
+  bool has_index(std::uint16_t idx) const noexcept { return dict.has_index(idx); }
+  int add(const OdEntry& e, std::uint32_t initial) { return dict.add(e, initial); }
+  const OdEntry& entry(int slot) const noexcept { return dict.entry(slot); }
+  std::uint32_t u(int slot) const noexcept { return dict.u(slot); }
+  std::int32_t i(int slot) const noexcept { return dict.i(slot); }
+  void set(int slot, std::uint32_t v) noexcept { dict.set(slot, v); }
 
   void build(const DriveEmulatorConfig& c, int joint) {
     namespace od = fw::od;
     index = joint;
+    dict.set_absent(c.absent_objects);
+    sdo_server.configure(c.drives[static_cast<std::size_t>(joint)].node_id,
+                         {c.segmented_upload, c.upload_without_size});
     cfg = c.drives[static_cast<std::size_t>(joint)];
     node = cfg.node_id;
     add(od::kDeviceType, 0x00020000u | od::kDeviceProfileCia402);  // servo drive, CiA 402
@@ -285,8 +284,12 @@ struct DriveEmulator::Drive {
     for (std::uint8_t s = 1; s <= kEmulatedConsumerHeartbeats; ++s)
       s_hb_cons[s - 1u] = add(od::consumer_heartbeat(s), s == 1 ? c.consumer_heartbeat : 0u);
     s_hb_prod = add(od::kProducerHeartbeat, c.producer_heartbeat_ms);
+    // Every record has sub0, the highest sub-index supported (CiA 301 7.4.3).
+    add(od::kIdentityCount, od::kIdentitySerial.subindex);
     add(od::kIdentityVendorId, c.vendor_id);
     add(od::kIdentityProductCode, c.product_code);
+    add(od::kIdentityRevision, 0x00010000u);
+    add(od::kIdentitySerial, node);
     add(od::kSyncCounterOverflow, 0);
     s_abort = add(od::kAbortConnectionOption, static_cast<std::uint16_t>(c.abort_connection));
     s_err = add(od::kErrorCode, 0);
@@ -305,8 +308,10 @@ struct DriveEmulator::Drive {
     s_max = add(od::kMaxTorque, cfg.max_torque_per_mille);
     s_rated = add(od::kRatedTorque, cfg.rated_torque_mnm);
     s_torque = add(od::kTorqueActual, 0);
+    add(od::kEncoderResolutionCount, od::kEncoderMotorRevolutions.subindex);
     add(od::kEncoderIncrements, cfg.counts_per_revolution);
     add(od::kEncoderMotorRevolutions, 1);
+    add(od::kInterpolationPeriodCount, od::kInterpolationPeriodIndex.subindex);
     add(od::kInterpolationPeriodValue, 1);
     add(od::kInterpolationPeriodIndex, static_cast<std::uint8_t>(-3));  // 1 x 10^-3 s
     s_din = add(od::kDigitalInputs, 0);
@@ -316,6 +321,7 @@ struct DriveEmulator::Drive {
       for (PdoDirection d : {PdoDirection::kRpdo, PdoDirection::kTpdo}) {
         const bool rx = d == PdoDirection::kRpdo;
         const fw::Function f = rx ? fw::rpdo_function(n) : fw::tpdo_function(n);
+        add(od::pdo_communication_count(d, n), od::kPdoSubEventTimer);
         add(od::pdo_cob_id(d, n), fw::pdo_cob_id_value(fw::cob_id(f, node), n == 1));
         add(od::pdo_transmission_type(d, n),
             n == 1 ? fw::kTransmissionSyncEvery : fw::kTransmissionEventProfile);
@@ -376,7 +382,7 @@ struct DriveEmulator::Drive {
       } else {
         const int slot = find(e.index, e.subindex);
         if (slot < 0) return abort_value(SdoAbortCode::kObjectDoesNotExist);
-        const OdEntry& o = od[static_cast<std::size_t>(slot)].entry;
+        const OdEntry& o = dict.entry(slot);
         const bool writable = o.access == fw::Access::kRw || o.access == fw::Access::kWo;
         const bool readable = o.access != fw::Access::kWo;
         if (!o.pdo_mappable || e.bits != o.bits() || (rx && !writable) || (!rx && !readable))
@@ -391,7 +397,7 @@ struct DriveEmulator::Drive {
   // ---- value checks for SDO downloads (CiA 301 table 22 codes) ----
   std::uint32_t check_write(int slot, std::uint32_t v) const noexcept {
     namespace fo = fw::od;
-    const OdEntry& e = od[static_cast<std::size_t>(slot)].entry;
+    const OdEntry& e = dict.entry(slot);
     const std::int32_t sv = as_signed(v, e.size());
     auto range = [&](std::int32_t lo, std::int32_t hi) -> std::uint32_t {
       if (sv < lo) return abort_value(SdoAbortCode::kValueTooLow);
@@ -471,13 +477,26 @@ struct DriveEmulator::Drive {
     send(emu, fw::encode_emcy(e));
     ++counters.emcy_sent;
   }
-  void send_sdo_abort(DriveEmulator& emu, std::uint16_t idx, std::uint8_t sub,
-                      std::uint32_t code) noexcept {
-    send(emu, fw::sdo_abort(node, fw::SdoRole::kServer, idx, sub, code));
-    ++counters.sdo_aborts_sent;
-    sdo = SdoState::kIdle;
+  // 1001h from the conditions still present.
+  std::uint8_t error_register_now() const noexcept {
+    std::uint8_t r = 0;
+    if (state == Cia402State::kFault || state == Cia402State::kFaultReactionActive)
+      r |= error_register_for(static_cast<std::uint16_t>(u(s_err)));
+    if (hb_lost[0] || hb_lost[1]) r |= error_register_for(fw::emcy::kHeartbeatError);
+    if (pdo_length_error) r |= error_register_for(fw::emcy::kPdoLengthError);
+    if (deadline_error || wd_tripped) r |= error_register_for(fw::emcy::kRpdoTimeout);
+    return r;
   }
-
+  // An error condition started: 1001h updated, then its EMCY (carrying 1001h).
+  void raise_error(DriveEmulator& emu, std::uint16_t code) noexcept {
+    set(s_err_reg, error_register_now());
+    send_emcy(emu, code);
+  }
+  // An error condition is gone: EMCY 0000h "error reset" with the remaining 1001h.
+  void error_gone(DriveEmulator& emu) noexcept {
+    set(s_err_reg, error_register_now());
+    send_emcy(emu, fw::emcy::kNoError);
+  }
   // ---- CiA 402 ----
   std::uint16_t statusword(bool estop_input) const noexcept {
     std::uint16_t w = static_cast<std::uint16_t>(fw::statusword_bits(state) | fw::sw::kRemote);
@@ -542,20 +561,22 @@ struct DriveEmulator::Drive {
 
   void enter_fault(DriveEmulator& emu, std::uint16_t code) noexcept {
     set(s_err, code);
-    set(s_err_reg, u(s_err_reg) | error_register_for(code));
     if (state != Cia402State::kFault) {
       set_state(emu, Cia402State::kFaultReactionActive, 13);
       set_state(emu, Cia402State::kFault, 14);  // no reaction ramp modelled: torque is off
     }
-    send_emcy(emu, code);
+    raise_error(emu, code);
   }
 
+  // Transition 15; refused (the drive stays in Fault) while the cause remains.
   void fault_reset(DriveEmulator& emu) noexcept {
+    if (fault_cause) {
+      ++counters.fault_resets_refused;
+      return;
+    }
     set_state(emu, Cia402State::kSwitchOnDisabled, 15);
     set(s_err, fw::emcy::kNoError);
-    const bool comm_lost = hb_lost[0] || hb_lost[1];
-    set(s_err_reg, comm_lost ? error_register_for(fw::emcy::kHeartbeatError) : 0u);
-    send_emcy(emu, fw::emcy::kNoError);
+    error_gone(emu);
   }
 
   // The controlword 6040h was written (SDO, or an RPDO acting now / at SYNC).
@@ -576,38 +597,15 @@ struct DriveEmulator::Drive {
         break;
     }
     const C c = fw::decode_command(cw);
-    switch (state) {
-      case Cia402State::kSwitchOnDisabled:
-        // 2; refused while the STO circuit (e-stop input) is open.
-        if (c == C::kShutdown && !estop_input()) set_state(emu, Cia402State::kReadyToSwitchOn, 2);
-        break;
-      case Cia402State::kReadyToSwitchOn:
-        if (c == C::kSwitchOn) set_state(emu, Cia402State::kSwitchedOn, 3);
-        if (c == C::kDisableVoltage || c == C::kQuickStop)
-          set_state(emu, Cia402State::kSwitchOnDisabled, 7);
-        break;
-      case Cia402State::kSwitchedOn:
-        if (c == C::kEnableOperation) set_state(emu, Cia402State::kOperationEnabled, 4);
-        if (c == C::kShutdown) set_state(emu, Cia402State::kReadyToSwitchOn, 6);
-        if (c == C::kDisableVoltage || c == C::kQuickStop)
-          set_state(emu, Cia402State::kSwitchOnDisabled, 10);
-        break;
-      case Cia402State::kOperationEnabled:
-        if (c == C::kSwitchOn) set_state(emu, Cia402State::kSwitchedOn, 5);  // disable operation
-        if (c == C::kShutdown) set_state(emu, Cia402State::kReadyToSwitchOn, 8);
-        if (c == C::kDisableVoltage) set_state(emu, Cia402State::kSwitchOnDisabled, 9);
-        if (c == C::kQuickStop) enter_quick_stop(emu);
-        break;
-      case Cia402State::kQuickStopActive:
-        if (c == C::kDisableVoltage) set_state(emu, Cia402State::kSwitchOnDisabled, 12);
-        // 16 only where 605Ah keeps the drive in Quick stop active (5..8).
-        if (c == C::kEnableOperation &&
-            i(s_qs) >= static_cast<std::int16_t>(fw::QuickStopOption::kSlowDownRampStay))
-          set_state(emu, Cia402State::kOperationEnabled, 16);
-        break;
-      default:
-        break;
-    }
+    // The drive side of firmware_if's transition table (fw::slave_transition); 16 only where
+    // 605Ah keeps the drive in Quick stop active (5..8).
+    const bool qs_stays =
+        i(s_qs) >= static_cast<std::int16_t>(fw::QuickStopOption::kSlowDownRampStay);
+    const std::optional<fw::Transition> t = fw::slave_transition(state, c, qs_stays);
+    if (!t) return;
+    if (t->number == 2 && estop_input()) return;        // refused while the STO circuit is open
+    if (t->number == 11) return enter_quick_stop(emu);  // 605Ah decides what follows
+    set_state(emu, t->to, t->number);
   }
 
   // 6007h abort connection option (CiA 402-2): heartbeat loss, RPDO deadline, NMT events.
@@ -632,7 +630,7 @@ struct DriveEmulator::Drive {
 
   // ---- dictionary writes and their effects ----
   void after_write(DriveEmulator& emu, int slot, std::uint64_t now) noexcept {
-    const OdEntry& e = od[static_cast<std::size_t>(slot)].entry;
+    const OdEntry& e = dict.entry(slot);
     if (slot == s_cw) {
       on_controlword(emu);
     } else if (slot == s_mode) {
@@ -669,18 +667,16 @@ struct DriveEmulator::Drive {
   }
 
   // ---- NMT ----
-  void reset_od(std::uint16_t from, std::uint16_t to) noexcept {
-    for (std::size_t k = 0; k < od_count; ++k)
-      if (od[k].entry.index >= from && od[k].entry.index <= to) od[k].value = od[k].initial;
-  }
   void reset_communication_state(std::uint64_t now) noexcept {
     for (std::uint8_t n = 1; n <= kEmulatedPdos; ++n) {
       rebuild(PdoDirection::kRpdo, n);
       rebuild(PdoDirection::kTpdo, n);
     }
-    sdo = SdoState::kIdle;
+    sdo_server.reset();
     hb_armed.fill(false);
     hb_lost.fill(false);
+    pdo_length_error = false;
+    deadline_error = false;
     wd_armed = false;
     wd_missed = 0;
     wd_tripped = false;
@@ -689,7 +685,7 @@ struct DriveEmulator::Drive {
   }
   // Power-on or reset node: the whole dictionary and the CiA 402 state machine restart.
   void reset_application(DriveEmulator& emu, std::uint64_t now) noexcept {
-    reset_od(0x0000, 0xFFFF);
+    dict.reset(0x0000, 0xFFFF);
     set(s_din, hw_inputs);
     prev_cw = 0;
     set_state(emu, Cia402State::kNotReadyToSwitchOn, 0);
@@ -736,139 +732,40 @@ struct DriveEmulator::Drive {
         break;
       case fw::NmtCommand::kResetCommunication:
         leave_operational(emu);
-        reset_od(0x1000, 0x1FFF);
+        dict.reset(0x1000, 0x1FFF);
         reset_communication_state(now);
         boot_up(emu, now);
         break;
     }
   }
 
-  // ---- SDO server (CiA 301 7.2.4) ----
-  std::uint32_t length_abort(std::size_t got, std::size_t want) const noexcept {
-    return abort_value(got > want ? SdoAbortCode::kLengthTooHigh : SdoAbortCode::kLengthTooLow);
-  }
+  // ---- SDO server (sim/canopen/sdo_server.hpp) ----
   // A download's value, checked and stored; kNoAbort on success.
   std::uint32_t download(DriveEmulator& emu, int slot, std::uint32_t v,
                          std::uint64_t now) noexcept {
-    v &= mask_of(od[static_cast<std::size_t>(slot)].entry);
+    v &= mask_of(dict.entry(slot));
     if (const std::uint32_t a = check_write(slot, v); a != kNoAbort) return a;
     set(slot, v);
     after_write(emu, slot, now);
     return kNoAbort;
   }
-  // Finds (index, sub) for an initiate; sends the abort and returns -1 when it is missing.
-  int sdo_lookup(DriveEmulator& emu, const fw::SdoMessage& m) noexcept {
-    const int slot = find(m.index, m.subindex);
-    if (slot < 0)
-      send_sdo_abort(emu, m.index, m.subindex,
-                     abort_value(has_index(m.index) ? SdoAbortCode::kSubindexDoesNotExist
-                                                    : SdoAbortCode::kObjectDoesNotExist));
-    return slot;
-  }
-
   void on_sdo(DriveEmulator& emu, const fw::CanFrame& frame, std::uint64_t now) noexcept {
     ++counters.sdo_requests;
-    const fw::Result<fw::SdoMessage> r = fw::decode_sdo_request(frame);
-    if (!r) {
-      if (r.error() == fw::Error::kBadCommandSpecifier)
-        send_sdo_abort(emu, fw::get_u16_le(&frame.data[1]), frame.data[3],
-                       abort_value(SdoAbortCode::kBadCommandSpecifier));
-      return;  // a wrong DLC is not an SDO request at all: ignored
-    }
-    const fw::SdoMessage& m = *r;
-    switch (m.type) {
-      case fw::SdoType::kAbort:
-        sdo = SdoState::kIdle;
-        return;
-      case fw::SdoType::kDownloadInitiate: {
-        sdo = SdoState::kIdle;
-        const int slot = sdo_lookup(emu, m);
-        if (slot < 0) return;
-        const OdEntry& e = od[static_cast<std::size_t>(slot)].entry;
-        if (e.access == fw::Access::kRo || e.access == fw::Access::kConst)
-          return send_sdo_abort(emu, m.index, m.subindex, abort_value(SdoAbortCode::kReadOnly));
-        if (m.expedited) {
-          if (m.size_indicated && m.data_len != e.size())
-            return send_sdo_abort(emu, m.index, m.subindex, length_abort(m.data_len, e.size()));
-          const std::uint32_t a =
-              download(emu, slot, fw::get_uint_le(m.data.data(), e.size()), now);
-          if (a != kNoAbort) return send_sdo_abort(emu, m.index, m.subindex, a);
-          send(emu, fw::sdo_download_initiate_response(node, m.index, m.subindex));
-          return;
-        }
-        if (m.size_indicated && m.size != e.size())
-          return send_sdo_abort(emu, m.index, m.subindex, length_abort(m.size, e.size()));
-        receiver.begin(m.size_indicated ? m.size : 0);
-        sdo = SdoState::kDownload;
-        sdo_slot = slot;
-        send(emu, fw::sdo_download_initiate_response(node, m.index, m.subindex));
-        return;
+    // The drive behind the server: value checks and effects, live values before uploads.
+    struct Hooks final : canopen::SdoServerHooks {
+      Hooks(Drive& d, DriveEmulator& e, std::uint64_t t) noexcept : drive(d), emu(e), now(t) {}
+      std::uint32_t download(int slot, std::uint32_t v) noexcept override {
+        return drive.download(emu, slot, v, now);
       }
-      case fw::SdoType::kDownloadSegment: {
-        if (sdo != SdoState::kDownload)
-          return send_sdo_abort(emu, 0, 0, abort_value(SdoAbortCode::kBadCommandSpecifier));
-        const OdEntry& e = od[static_cast<std::size_t>(sdo_slot)].entry;
-        switch (receiver.accept(m)) {
-          case fw::Error::kNone:
-            break;
-          case fw::Error::kToggleMismatch:
-            return send_sdo_abort(emu, e.index, e.subindex,
-                                  abort_value(SdoAbortCode::kToggleNotAlternated));
-          case fw::Error::kTooLong:
-            return send_sdo_abort(emu, e.index, e.subindex,
-                                  abort_value(SdoAbortCode::kLengthTooHigh));
-          case fw::Error::kSizeMismatch:
-            return send_sdo_abort(emu, e.index, e.subindex,
-                                  abort_value(SdoAbortCode::kLengthTooLow));
-          default:
-            return send_sdo_abort(emu, e.index, e.subindex,
-                                  abort_value(SdoAbortCode::kBadCommandSpecifier));
-        }
-        if (receiver.done()) {
-          sdo = SdoState::kIdle;
-          const auto bytes = receiver.bytes();
-          if (bytes.size() != e.size())
-            return send_sdo_abort(emu, e.index, e.subindex, length_abort(bytes.size(), e.size()));
-          const std::uint32_t a =
-              download(emu, sdo_slot, fw::get_uint_le(bytes.data(), bytes.size()), now);
-          if (a != kNoAbort) return send_sdo_abort(emu, e.index, e.subindex, a);
-        }
-        send(emu, fw::sdo_download_segment_response(node, m.toggle));
-        return;
-      }
-      case fw::SdoType::kUploadInitiate: {
-        sdo = SdoState::kIdle;
-        const int slot = sdo_lookup(emu, m);
-        if (slot < 0) return;
-        const OdEntry& e = od[static_cast<std::size_t>(slot)].entry;
-        if (e.access == fw::Access::kWo)
-          return send_sdo_abort(emu, m.index, m.subindex, abort_value(SdoAbortCode::kWriteOnly));
-        refresh(emu);
-        const std::uint32_t v = u(slot);
-        if (!emu.config_.segmented_upload) {
-          send(emu, fw::sdo_upload_value_response(node, e, v));
-          return;
-        }
-        fw::put_u32_le(sdo_tx.data(), v);
-        sender.begin(std::span<const std::uint8_t>(sdo_tx.data(), e.size()));
-        sdo = SdoState::kUpload;
-        sdo_slot = slot;
-        send(emu, fw::sdo_upload_initiate_response(node, m.index, m.subindex, e.size()));
-        return;
-      }
-      case fw::SdoType::kUploadSegment: {
-        if (sdo != SdoState::kUpload)
-          return send_sdo_abort(emu, 0, 0, abort_value(SdoAbortCode::kBadCommandSpecifier));
-        const OdEntry& e = od[static_cast<std::size_t>(sdo_slot)].entry;
-        if (m.toggle != sender.next_toggle())
-          return send_sdo_abort(emu, e.index, e.subindex,
-                                abort_value(SdoAbortCode::kToggleNotAlternated));
-        const fw::SdoSegmentSender::Segment s = sender.next();
-        if (s.last) sdo = SdoState::kIdle;
-        send(emu, fw::sdo_upload_segment_response(node, s.toggle, s.bytes, s.last));
-        return;
-      }
-    }
+      void before_upload(int) noexcept override { drive.refresh(emu); }
+      Drive& drive;
+      DriveEmulator& emu;
+      std::uint64_t now;
+    } hooks(*this, emu, now);
+    const std::uint64_t aborts = sdo_server.aborts_sent();
+    fw::CanFrame response;
+    if (sdo_server.on_request(frame, dict, hooks, response)) send(emu, response);
+    counters.sdo_aborts_sent += sdo_server.aborts_sent() - aborts;
   }
 
   // ---- PDO traffic ----
@@ -893,12 +790,23 @@ struct DriveEmulator::Drive {
       if (nmt != EmulatedNmt::kOperational) continue;  // PDOs only in Operational
       if (frame.dlc < p.bytes) {
         ++counters.rpdo_length_errors;
-        send_emcy(emu, fw::emcy::kPdoLengthError);  // 8210h, the data is not used
+        if (!pdo_length_error) {  // 8210h once per occurrence; the data is not used
+          pdo_length_error = true;
+          raise_error(emu, fw::emcy::kPdoLengthError);
+        }
         continue;
       }
       ++counters.rpdos;
+      if (pdo_length_error) {  // a correct RPDO: the condition is gone
+        pdo_length_error = false;
+        error_gone(emu);
+      }
       p.last_rx_ns = now;
       p.deadline_armed = true;
+      if (deadline_error) {  // the RPDOs are back
+        deadline_error = false;
+        error_gone(emu);
+      }
       if (p.maps_torque) {
         torque_rx_since_sync = true;
         wd_armed = true;
@@ -971,7 +879,10 @@ struct DriveEmulator::Drive {
       if (wd_armed && emu.config_.rpdo_watchdog_cycles > 0) {
         if (torque_rx_since_sync) {
           wd_missed = 0;
-          wd_tripped = false;
+          if (wd_tripped) {
+            wd_tripped = false;
+            if (!deadline_error) error_gone(emu);
+          }
         } else if (++wd_missed >= emu.config_.rpdo_watchdog_cycles && !wd_tripped) {
           wd_tripped = true;
           ++counters.watchdog_trips;
@@ -1025,7 +936,7 @@ struct DriveEmulator::Drive {
       if (t_ns == 0 || !hb_armed[c] || hb_lost[c] || now - hb_last_ns[c] < t_ns) continue;
       hb_lost[c] = true;
       ++counters.heartbeat_losses;
-      set(s_err_reg, u(s_err_reg) | error_register_for(fw::emcy::kHeartbeatError));
+      set(s_err_reg, error_register_now());
       if (static_cast<fw::AbortConnectionOption>(i(s_abort)) !=
           fw::AbortConnectionOption::kFaultSignal)
         send_emcy(emu, fw::emcy::kHeartbeatError);
@@ -1038,7 +949,8 @@ struct DriveEmulator::Drive {
       if (now - p.last_rx_ns < static_cast<std::uint64_t>(p.event_ms) * 1'000'000u) continue;
       p.deadline_armed = false;
       ++counters.deadline_trips;
-      set(s_err_reg, u(s_err_reg) | error_register_for(fw::emcy::kRpdoTimeout));
+      deadline_error = true;
+      set(s_err_reg, error_register_now());
       if (static_cast<fw::AbortConnectionOption>(i(s_abort)) !=
           fw::AbortConnectionOption::kFaultSignal)
         send_emcy(emu, fw::emcy::kRpdoTimeout);
@@ -1063,10 +975,7 @@ struct DriveEmulator::Drive {
       hb_armed[c] = true;  // monitoring starts with the first heartbeat (CiA 301)
       if (hb_lost[c]) {
         hb_lost[c] = false;
-        if (state != Cia402State::kFault) {
-          set(s_err_reg, 0);
-          send_emcy(emu, fw::emcy::kNoError);  // the error condition has gone
-        }
+        error_gone(emu);  // 0000h with what remains in 1001h (e.g. a fault)
       }
     }
   }
@@ -1088,7 +997,8 @@ DriveEmulator::DriveEmulator(drivers::CanBus& bus, Plant& plant, const DriveEmul
 DriveEmulator::~DriveEmulator() = default;
 
 double DriveEmulator::period_s() const noexcept {
-  // 1006h (us) as the master wrote it on the first drive, else the configured period.
+  // Nominal period for the free run and the SYNC monitoring: 1006h (us) as the master
+  // wrote it on the first drive, else the configured period.
   const Drive& d = *drives_[0];
   const std::uint32_t us = d.u(d.s_period);
   return us != 0 ? static_cast<double>(us) * 1e-6
@@ -1097,13 +1007,28 @@ double DriveEmulator::period_s() const noexcept {
 
 void DriveEmulator::command_plant() noexcept { plant_.command(torque_); }
 
-void DriveEmulator::sync(std::uint64_t now_ns, bool real) noexcept {
-  if (plant_started_) plant_.advance(period_s());  // t_{k-1} -> t_k with the latched torque
+void DriveEmulator::sync(std::uint64_t now_ns, bool real, std::uint64_t stamp_ns) noexcept {
+  if (plant_started_) {
+    // t_{k-1} -> t_k with the latched torque, by the SYNCs' actual spacing: receive
+    // timestamps between two real SYNCs when the bus gives them, else handling times.
+    const std::uint64_t dt_ns = (real && last_advance_real_ && stamp_ns != 0 &&
+                                 last_sync_stamp_ns_ != 0 && stamp_ns > last_sync_stamp_ns_)
+                                    ? stamp_ns - last_sync_stamp_ns_
+                                    : now_ns - last_advance_ns_;
+    if (real) {
+      const Drive& d = *drives_[0];
+      const std::uint64_t nominal_ns = static_cast<std::uint64_t>(d.u(d.s_period)) * 1000u;
+      if (nominal_ns != 0 && dt_ns > nominal_ns + nominal_ns / 2) ++late_syncs_;
+    }
+    if (dt_ns > 0) plant_.advance(static_cast<double>(dt_ns) * 1e-9);
+  }
   plant_started_ = true;
   last_advance_ns_ = now_ns;
+  last_advance_real_ = real;
   if (real) {
     ++syncs_;
     last_real_sync_ns_ = now_ns;
+    last_sync_stamp_ns_ = stamp_ns;
   } else {
     ++virtual_syncs_;
   }
@@ -1149,7 +1074,7 @@ void DriveEmulator::on_frame(const fw::CanFrame& frame, std::uint64_t now_ns) no
       return;
     }
     free_running_ = false;
-    sync(now_ns, true);
+    sync(now_ns, true, frame.timestamp_ns);
     return;
   }
   bool handled = false;
@@ -1213,6 +1138,17 @@ void DriveEmulator::set_digital_inputs(int drive, std::uint32_t mask, bool on) n
 void DriveEmulator::inject_fault(int drive, std::uint16_t emcy_code) noexcept {
   if (drive < 0 || drive >= n_) return;
   drives_[static_cast<std::size_t>(drive)]->enter_fault(*this, emcy_code);
+}
+
+void DriveEmulator::hold_fault(int drive, std::uint16_t emcy_code) noexcept {
+  if (drive < 0 || drive >= n_) return;
+  Drive& d = *drives_[static_cast<std::size_t>(drive)];
+  d.fault_cause = true;
+  d.enter_fault(*this, emcy_code);
+}
+
+void DriveEmulator::release_fault(int drive) noexcept {
+  if (drive >= 0 && drive < n_) drives_[static_cast<std::size_t>(drive)]->fault_cause = false;
 }
 
 void DriveEmulator::set_silent(int drive, bool silent) noexcept {

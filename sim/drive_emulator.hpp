@@ -78,9 +78,10 @@
 //
 // Timing (one cycle of transport delay, like a real drive in cyclic synchronous mode):
 //   at SYNC k (time t_k): 1) the plant is advanced from t_{k-1} to t_k with the torque
-//   latched at SYNC k-1 (nothing at the first SYNC: plant time starts there), using the
-//   nominal period (1006h when the master wrote it, else the `can:` SYNC period), not
-//   the frame's arrival time, so a jittery bus does not change the physics;
+//   latched at SYNC k-1 (nothing at the first SYNC: plant time starts there), by the
+//   actual spacing of the SYNCs received (their receive timestamps when the bus gives
+//   them, else the time they were handled): the mechanism moves in real time whatever
+//   period the master runs at. 1006h only monitors the SYNC (late_syncs());
 //   2) every drive samples its TPDO data (position actual = plant counts + zero_offset,
 //   statusword, ...) and sends its due TPDOs; 3) synchronous RPDOs received since SYNC
 //   k-1 are latched, the watchdog counted, quick stops completed; 4) the new torque is
@@ -93,7 +94,8 @@
 //   (cycles - 1) and its torque quantisation off (the per mille quantisation happens on
 //   the wire, 6071h is an integer).
 //   When SYNCs stop for free_run_after_ns after having started (the master died), the
-//   plant keeps running in on_time in whole nominal periods ("virtual SYNCs": no TPDO, the
+//   plant keeps running in on_time in whole nominal periods (1006h when written, else the
+//   `can:` SYNC period) ("virtual SYNCs": no TPDO, the
 //   watchdog counts misses), so a dead master does not freeze the mechanism mid-motion.
 #include <array>
 #include <cstdint>
@@ -102,7 +104,7 @@
 #include <vector>
 
 #include "drivers/can/can_bus.hpp"
-#include "drivers/canopen_config.hpp"
+#include "firmware_if/can_config.hpp"
 #include "firmware_if/firmware_if.hpp"
 #include "sim/plant.hpp"
 
@@ -136,6 +138,12 @@ struct DriveEmulatorConfig {
   std::uint64_t free_run_after_ns = 50'000'000;
   // Answer every upload with a segmented transfer (legal, tests the client's path).
   bool segmented_upload = false;
+  // A foreign drive's habits (`dualv sim --foreign`): expedited upload responses without
+  // size indication (42h + 4 bytes, CiA 301 7.2.4.3.6), and objects the drive does not
+  // have (SDO answers 06020000h). Only objects a CiA 402 CST drive may lack can be left
+  // out: 1006h, 1019h, 6007h, 605Ah..605Eh, 606Ch, 6077h, 60C2h, 60FDh.
+  bool upload_without_size = false;
+  std::vector<std::uint16_t> absent_objects;
   std::uint32_t vendor_id = 0x00000000;     // 1018h sub1 (none registered: a simulator)
   std::uint32_t product_code = 0x44564531;  // 1018h sub2, "DVE1"
 
@@ -143,9 +151,9 @@ struct DriveEmulatorConfig {
   void validate(int plant_joints) const;
 };
 
-// The emulator's view of the `can:` section (drivers/canopen_config.hpp): node ids, units,
+// The emulator's view of the `can:` section (firmware_if/can_config.hpp): node ids, units,
 // offsets, SYNC period, and as defaults the values the master writes at boot anyway.
-DriveEmulatorConfig emulator_config_from(const drivers::CanConfig& can);
+DriveEmulatorConfig emulator_config_from(const fw::CanConfig& can);
 
 // The plant behind the emulator: `plant` with its torque quantisation off (the wire
 // quantises) and its transport delay reduced by the one cycle the bus provides
@@ -168,9 +176,10 @@ struct EmulatedDriveCounters {
   std::uint64_t emcy_sent = 0;
   std::uint64_t heartbeats_sent = 0;
   std::uint64_t heartbeat_losses = 0;
-  std::uint64_t watchdog_trips = 0;  // SYNC-counted RPDO watchdog
-  std::uint64_t deadline_trips = 0;  // 1400h sub5 event timer
-  std::uint64_t tx_failures = 0;     // CanBus::send did not return kOk
+  std::uint64_t watchdog_trips = 0;        // SYNC-counted RPDO watchdog
+  std::uint64_t deadline_trips = 0;        // 1400h sub5 event timer
+  std::uint64_t tx_failures = 0;           // CanBus::send did not return kOk
+  std::uint64_t fault_resets_refused = 0;  // transition 15 asked while the cause remains
 };
 
 // A snapshot of one drive, for tests, the CLI status line and fault-injection suites.
@@ -217,7 +226,12 @@ class DriveEmulator {
   // One drive's digital inputs (60FDh): set or clear the bits of `mask`.
   void set_digital_inputs(int drive, std::uint32_t mask, bool on) noexcept;
   // The drive faults now (transition 13 -> 14): EMCY with `emcy_code`, 603Fh, torque off.
+  // A fault reset (transition 15) clears it at once.
   void inject_fault(int drive, std::uint16_t emcy_code) noexcept;
+  // The same, with a cause that remains (e.g. over-temperature) until release_fault(): a
+  // fault reset is refused while it does (the drive stays in Fault), and works after.
+  void hold_fault(int drive, std::uint16_t emcy_code) noexcept;
+  void release_fault(int drive) noexcept;
   // No frame in or out (cable unplugged); internal timers keep running.
   void set_silent(int drive, bool silent) noexcept;
   // After power-on or a reset the drive stays in Initialisation, silent. Clearing it boots
@@ -238,6 +252,9 @@ class DriveEmulator {
                    std::uint32_t& raw) const noexcept;
   bool estop_pressed() const noexcept { return estop_; }
   std::uint64_t syncs() const noexcept { return syncs_; }
+  // SYNC monitoring with 1006h (CiA 301 7.5.2.6): SYNCs that came more than 1.5 x 1006h
+  // after the previous one (0 when 1006h is 0).
+  std::uint64_t late_syncs() const noexcept { return late_syncs_; }
   std::uint64_t virtual_syncs() const noexcept { return virtual_syncs_; }
   std::uint64_t unhandled_frames() const noexcept { return unhandled_frames_; }
   std::uint64_t last_frame_ns() const noexcept { return last_frame_ns_; }
@@ -246,9 +263,11 @@ class DriveEmulator {
   const DriveEmulatorConfig& config() const noexcept { return config_; }
 
  private:
-  struct Drive;  // one slave: dictionary, PDOs, SDO server, NMT, CiA 402 (in the .cpp)
+  // One slave: its dictionary and SDO server are the parts of sim/canopen/, the PDO engine,
+  // NMT, heartbeat / EMCY producers and the CiA 402 slave are in the .cpp.
+  struct Drive;
 
-  void sync(std::uint64_t now_ns, bool real) noexcept;
+  void sync(std::uint64_t now_ns, bool real, std::uint64_t stamp_ns = 0) noexcept;
   void command_plant() noexcept;
   double period_s() const noexcept;
 
@@ -263,7 +282,10 @@ class DriveEmulator {
   bool free_running_ = false;          // SYNCs stopped: on_time advances the plant
   std::uint64_t last_advance_ns_ = 0;  // time of the last (real or virtual) SYNC
   std::uint64_t last_real_sync_ns_ = 0;
+  std::uint64_t last_sync_stamp_ns_ = 0;  // receive timestamp of the last real SYNC, 0 = none
+  bool last_advance_real_ = false;
   std::uint64_t syncs_ = 0;
+  std::uint64_t late_syncs_ = 0;
   std::uint64_t virtual_syncs_ = 0;
   std::uint64_t unhandled_frames_ = 0;
   std::uint64_t last_frame_ns_ = 0;

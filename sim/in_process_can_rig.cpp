@@ -13,7 +13,7 @@ InProcessCanRig::InProcessCanRig(const model::Model& model, const PlantConfig& p
 }
 
 InProcessCanRig::InProcessCanRig(const model::Model& model, const PlantConfig& plant_config,
-                                 const drivers::CanConfig& can, std::size_t queue_capacity)
+                                 const fw::CanConfig& can, std::size_t queue_capacity)
     : InProcessCanRig(model, plant_config, emulator_config_from(can), queue_capacity) {}
 
 }  // namespace dualv::sim

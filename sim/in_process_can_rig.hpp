@@ -20,7 +20,7 @@
 #include <memory>
 
 #include "drivers/can/in_process_bus.hpp"
-#include "drivers/canopen_config.hpp"
+#include "firmware_if/can_config.hpp"
 #include "sim/drive_emulator.hpp"
 #include "sim/plant.hpp"
 
@@ -42,7 +42,7 @@ class InProcessCanRig {
                   const DriveEmulatorConfig& emulator, std::size_t queue_capacity = 1024);
   // Same, from the `can:` section.
   InProcessCanRig(const model::Model& model, const PlantConfig& plant_config,
-                  const drivers::CanConfig& can, std::size_t queue_capacity = 1024);
+                  const fw::CanConfig& can, std::size_t queue_capacity = 1024);
 
   drivers::InProcessBus& master_bus() noexcept { return *master_; }
   drivers::InProcessBus& monitor_bus() noexcept { return *monitor_; }

@@ -42,6 +42,26 @@ void add_pdo(std::vector<ConfigWrite>& w, PdoDirection dir, std::uint8_t number,
                "PDO valid"});
 }
 
+// Marks the writes from `first` on as belonging to the non-mandatory object `key`.
+void tag(std::vector<ConfigWrite>& w, std::size_t first, const char* key, ObjectPolicy p) {
+  for (std::size_t i = first; i < w.size(); ++i) {
+    w[i].object = key;
+    w[i].policy = p;
+  }
+}
+
+// The drive has no such object / sub-index (or cannot map it): what an optional object
+// may be skipped for.
+bool means_absent(std::uint32_t code, const fw::OdEntry& e) {
+  using C = fw::SdoAbortCode;
+  if (code == static_cast<std::uint32_t>(C::kObjectDoesNotExist) ||
+      code == static_cast<std::uint32_t>(C::kSubindexDoesNotExist))
+    return true;
+  const bool mapping = (e.index >= fw::od::kRpdoMappingBase && e.index < 0x1800) ||
+                       (e.index >= fw::od::kTpdoMappingBase && e.index < 0x1C00);
+  return mapping && code == static_cast<std::uint32_t>(C::kCannotBeMapped);
+}
+
 std::uint32_t raw16(std::int16_t v) { return static_cast<std::uint16_t>(v); }
 
 std::uint32_t mask(const fw::OdEntry& e) {
@@ -67,8 +87,16 @@ bool interpolation_period(std::uint64_t period_ns, std::uint8_t& value,
 
 std::vector<ConfigWrite> boot_writes(const CanConfig& c, int drive) {
   const CanDriveConfig& d = c.drives.at(static_cast<std::size_t>(drive));
+  const BootObjects& o = d.objects;
   const std::uint8_t id = d.node_id;
   std::vector<ConfigWrite> w;
+  // Adds the writes `add` makes as the object `key` with policy `p` (none when off).
+  auto object = [&w](const char* key, ObjectPolicy p, auto add) {
+    if (p == ObjectPolicy::kOff) return;
+    const std::size_t first = w.size();
+    add();
+    tag(w, first, key, p);
+  };
   w.push_back(
       {fw::od::kProducerHeartbeat, ms(c.drive_heartbeat_period_ns), "drive heartbeat (1017h)"});
 
@@ -89,33 +117,51 @@ std::vector<ConfigWrite> boot_writes(const CanConfig& c, int drive) {
   add_pdo(w, PdoDirection::kTpdo, 1, fw::cob_id(fw::Function::kTpdo1, id), fw::kTpdo1Layout,
           fw::kTransmissionSyncEvery, 0, false);
   if (c.digital_inputs_refresh_ns != 0)
-    add_pdo(w, PdoDirection::kTpdo, kDigitalInputsTpdo,
-            fw::cob_id(fw::tpdo_function(kDigitalInputsTpdo), id), kDigitalInputsTpdoLayout,
-            fw::kTransmissionEventProfile, ms(c.digital_inputs_refresh_ns), true, 10);
+    object("digital_inputs", o.digital_inputs, [&] {
+      add_pdo(w, PdoDirection::kTpdo, kDigitalInputsTpdo,
+              fw::cob_id(fw::tpdo_function(kDigitalInputsTpdo), id), kDigitalInputsTpdoLayout,
+              fw::kTransmissionEventProfile, ms(c.digital_inputs_refresh_ns), true, 10);
+    });
 
   w.push_back({fw::od::kModesOfOperation,
                static_cast<std::uint8_t>(fw::ModeOfOperation::kCyclicSyncTorque),
                "cyclic synchronous torque (6060h = 10)"});
   w.push_back({fw::od::kMaxTorque, fw::max_torque_per_mille(d.max_torque, d.rated_torque),
                "max torque (6072h, per mille of rated)"});
-  w.push_back({fw::od::kQuickStopOption, raw16(static_cast<std::int16_t>(c.quick_stop)),
-               "quick stop option (605Ah)"});
-  w.push_back({fw::od::kFaultReactionOption, raw16(static_cast<std::int16_t>(c.fault_reaction)),
-               "fault reaction option (605Eh)"});
-  w.push_back({fw::od::kAbortConnectionOption, raw16(static_cast<std::int16_t>(c.abort_connection)),
-               "abort connection option (6007h)"});
+  object("quick_stop", o.quick_stop, [&] {
+    w.push_back({fw::od::kQuickStopOption, raw16(static_cast<std::int16_t>(c.quick_stop)),
+                 "quick stop option (605Ah)"});
+  });
+  object("fault_reaction", o.fault_reaction, [&] {
+    w.push_back({fw::od::kFaultReactionOption, raw16(static_cast<std::int16_t>(c.fault_reaction)),
+                 "fault reaction option (605Eh)"});
+  });
+  object("abort_connection", o.abort_connection, [&] {
+    w.push_back({fw::od::kAbortConnectionOption,
+                 raw16(static_cast<std::int16_t>(c.abort_connection)),
+                 "abort connection option (6007h)"});
+  });
+  object("cycle_period", o.cycle_period, [&] {
+    w.push_back({fw::od::kCommunicationCyclePeriod,
+                 static_cast<std::uint32_t>(c.sync_period_ns / 1000u),
+                 "communication cycle period (1006h, us)"});
+  });
   std::uint8_t value = 0;
   std::int8_t index = 0;
   if (interpolation_period(c.sync_period_ns, value, index)) {
-    w.push_back({fw::od::kInterpolationPeriodValue, value, "interpolation period value (60C2h)"});
-    w.push_back({fw::od::kInterpolationPeriodIndex, static_cast<std::uint8_t>(index),
-                 "interpolation period index (60C2h)"});
+    object("interpolation_period", o.interpolation_period, [&] {
+      w.push_back({fw::od::kInterpolationPeriodValue, value, "interpolation period value (60C2h)"});
+      w.push_back({fw::od::kInterpolationPeriodIndex, static_cast<std::uint8_t>(index),
+                   "interpolation period index (60C2h)"});
+    });
   }
   if (c.sync_counter_overflow != 0)
     w.push_back({fw::od::kSyncCounterOverflow, c.sync_counter_overflow, "SYNC counter (1019h)"});
-  w.push_back({fw::od::consumer_heartbeat(1),
-               fw::consumer_heartbeat_value(c.master_node_id, ms(c.master_heartbeat_timeout_ns)),
-               "consumer heartbeat of the master (1016h)"});
+  object("consumer_heartbeat", o.consumer_heartbeat, [&] {
+    w.push_back({fw::od::consumer_heartbeat(1),
+                 fw::consumer_heartbeat_value(c.master_node_id, ms(c.master_heartbeat_timeout_ns)),
+                 "consumer heartbeat of the master (1016h)"});
+  });
   return w;
 }
 
@@ -152,11 +198,36 @@ void check_parameters(CanopenMaster& m, const CanConfig& c, int i) {
   if (!problems.empty()) throw ConfigError(problems);
 }
 
-void configure(CanopenMaster& m, const CanConfig& c, int i) {
+void configure(CanopenMaster& m, const CanConfig& c, int i, std::vector<SkippedObject>& skipped,
+               const std::function<void(const std::string&)>& log) {
   const std::uint8_t id = c.drives[static_cast<std::size_t>(i)].node_id;
+  const char* skipping = nullptr;  // the optional object being skipped
   for (const ConfigWrite& w : boot_writes(c, i)) {
-    m.write(id, w.entry, w.value);
-    const std::uint32_t back = m.read(id, w.entry);
+    if (skipping != nullptr && w.object != nullptr && std::string(w.object) == skipping) continue;
+    skipping = nullptr;
+    std::uint32_t back = 0;
+    try {
+      m.write(id, w.entry, w.value);
+      back = m.read(id, w.entry);
+    } catch (const SdoError& e) {
+      if (w.object == nullptr || w.policy != ObjectPolicy::kOptional ||
+          e.status() != SdoStatus::kAborted || !means_absent(e.code(), w.entry)) {
+        if (w.object != nullptr && w.policy == ObjectPolicy::kRequired &&
+            e.status() == SdoStatus::kAborted && means_absent(e.code(), w.entry))
+          throw SdoError(fmt::format("{} (can.objects.{} is required; make it optional to boot "
+                                     "this drive without it)",
+                                     e.what(), w.object),
+                         e.node(), e.index(), e.subindex(), e.status(), e.code());
+        throw;
+      }
+      SkippedObject s{id, w.object,
+                      fmt::format("{} aborted {:08X}h {}", describe(w.entry), e.code(),
+                                  fw::sdo_abort_text(e.code()))};
+      if (log) log(describe(s));
+      skipped.push_back(std::move(s));
+      skipping = w.object;
+      continue;
+    }
     if ((back & mask(w.entry)) != (w.value & mask(w.entry)))
       throw CanopenError(fmt::format(
           "node {}: {} ({}) read back {:#x} after writing {:#x}: the drive did not take the value",
@@ -193,7 +264,13 @@ void start_nodes(CanopenMaster& m, const CanConfig& c, const std::vector<std::ui
 
 }  // namespace
 
-void boot_drives(CanopenMaster& m, const CanConfig& c) {
+std::string describe(const SkippedObject& s) {
+  return fmt::format("node {}: {} skipped (optional): {}", s.node, s.object, s.detail);
+}
+
+std::vector<SkippedObject> boot_drives(CanopenMaster& m, const CanConfig& c,
+                                       const std::function<void(const std::string&)>& log) {
+  std::vector<SkippedObject> skipped;
   std::vector<std::uint8_t> nodes;
   for (const CanDriveConfig& d : c.drives) nodes.push_back(d.node_id);
   try {
@@ -202,9 +279,10 @@ void boot_drives(CanopenMaster& m, const CanConfig& c) {
     m.wait_boot_up(nodes, c.boot_timeout_ns);
     for (int i = 0; i < c.size(); ++i) {
       if (c.check_drive_parameters) check_parameters(m, c, i);
-      configure(m, c, i);
+      configure(m, c, i, skipped, log);
     }
     start_nodes(m, c, nodes);
+    return skipped;
   } catch (...) {
     // Never leave a half-configured bus running: every node back to Pre-operational.
     for (std::uint8_t id : nodes) {

@@ -9,7 +9,8 @@
 //         synchronous torque supported), 6076h rated torque and 608Fh encoder resolution,
 //         and refuse a mismatch with the configuration, naming the key;
 //      b. the SDO writes of boot_writes(): each one read back and compared (a drive that
-//         silently ignores a value is refused).
+//         silently ignores a value is refused); an optional object the drive lacks is
+//         skipped and reported (can.objects, drivers/canopen/README.md "Boot objects").
 //   3. NMT start every node; wait until each heartbeat reports Operational (NMT is
 //      unconfirmed: a node still not Operational after three heartbeat periods gets the
 //      start command again, until can.timeouts.boot).
@@ -17,6 +18,7 @@
 // Nothing is half-applied: on any error the nodes just configured are put back into
 // Pre-operational (NMT) before the exception leaves, and the caller gets the error.
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -33,11 +35,26 @@ inline constexpr std::uint8_t kDigitalInputsTpdo = 2;
 inline constexpr fw::PdoLayout kDigitalInputsTpdoLayout{{fw::map_entry(fw::od::kDigitalInputs)}, 1};
 
 // One SDO write of the configuration (value as its raw bit pattern in the entry's size).
+// Writes of a non-mandatory object carry its key in can.objects and its policy: when the
+// drive answers 06020000h (no object), 06090011h (no sub-index) or, for a mapping entry,
+// 06040041h (cannot be mapped) to an optional one, that write and the rest of the object's
+// writes are skipped and reported; a required one fails the boot.
 struct ConfigWrite {
   fw::OdEntry entry;
   std::uint32_t value = 0;
-  const char* why = "";  // short reason, for logs and error messages
+  const char* why = "";          // short reason, for logs and error messages
+  const char* object = nullptr;  // can.objects key, nullptr = mandatory
+  ObjectPolicy policy = ObjectPolicy::kRequired;
 };
+
+// An optional object boot left out, for the boot log.
+struct SkippedObject {
+  std::uint8_t node = 0;
+  std::string object;  // can.objects key, e.g. "interpolation_period"
+  std::string detail;  // "60C2h sub1 (interpolation time period value): 06020000h ..."
+};
+// "node 2: interpolation_period skipped (optional): 60C2h sub1 (...) aborted 06020000h ..."
+std::string describe(const SkippedObject& s);
 
 // The writes for drive `drive` (0..n-1), in the order they are sent:
 //   1017h producer heartbeat time (ms);
@@ -50,9 +67,10 @@ struct ConfigWrite {
 //   255 (on change), inhibit time 1 ms, event timer = the refresh;
 //   6060h = 10 (cyclic synchronous torque), 6072h max torque (per mille of rated),
 //   605Ah quick stop option, 605Eh fault reaction option, 6007h abort connection option,
-//   60C2h interpolation period = SYNC period, 1019h SYNC counter overflow (when a counter
-//   is used), 1016h sub1 consumer heartbeat of the master (last: from here on the drive
-//   watches the host).
+//   1006h communication cycle period = SYNC period (us), 60C2h interpolation period = SYNC
+//   period, 1019h SYNC counter overflow (when a counter is used), 1016h sub1 consumer
+//   heartbeat of the master (last: from here on the drive watches the host).
+// Objects whose policy is off (can.objects) are left out.
 std::vector<ConfigWrite> boot_writes(const CanConfig& config, int drive);
 
 // 60C2h value/index for a period in ns: value * 10^index s (value 1..255). False when the
@@ -62,7 +80,9 @@ bool interpolation_period(std::uint64_t period_ns, std::uint8_t& value,
 
 // Runs the whole sequence above. Throws BootTimeoutError, SdoError or CanopenError
 // (what() names the node and the object), or ConfigError for a drive whose parameters do
-// not match the configuration.
-void boot_drives(CanopenMaster& master, const CanConfig& config);
+// not match the configuration. Returns the optional objects skipped, each also given to
+// `log` (one line each) when set.
+std::vector<SkippedObject> boot_drives(CanopenMaster& master, const CanConfig& config,
+                                       const std::function<void(const std::string&)>& log = {});
 
 }  // namespace dualv::drivers::canopen

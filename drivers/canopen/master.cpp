@@ -147,7 +147,7 @@ std::uint32_t CanopenMaster::read(std::uint8_t node, const fw::OdEntry& entry) {
   std::array<std::uint8_t, 4> b{};
   SdoClient c(node, config_.sdo_timeout_ns);
   pump();
-  c.upload(bus_, entry.index, entry.subindex, b, clock_.now_ns());
+  c.upload(bus_, entry.index, entry.subindex, b, clock_.now_ns(), entry.size());
   const std::string what = fmt::format("SDO read {}", describe(entry));
   run_sdo(c, what);
   if (c.uploaded().size() != entry.size())

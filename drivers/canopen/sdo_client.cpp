@@ -70,6 +70,7 @@ SdoStatus SdoClient::download(CanBus& bus, std::uint16_t index, std::uint8_t sub
   index_ = index;
   subindex_ = subindex;
   abort_code_ = 0;
+  abort_mux_differed_ = false;
   protocol_error_ = fw::Error::kNone;
   uploaded_ = 0;
   if (data.size() <= fw::kSdoExpeditedMax) {
@@ -87,11 +88,14 @@ SdoStatus SdoClient::download(CanBus& bus, std::uint16_t index, std::uint8_t sub
 }
 
 SdoStatus SdoClient::upload(CanBus& bus, std::uint16_t index, std::uint8_t subindex,
-                            std::span<std::uint8_t> buffer, std::uint64_t now_ns) noexcept {
+                            std::span<std::uint8_t> buffer, std::uint64_t now_ns,
+                            std::size_t expected_size) noexcept {
   if (status_ == SdoStatus::kBusy) return SdoStatus::kError;
   index_ = index;
   subindex_ = subindex;
+  expected_size_ = expected_size;
   abort_code_ = 0;
+  abort_mux_differed_ = false;
   protocol_error_ = fw::Error::kNone;
   buffer_ = buffer;
   uploaded_ = 0;
@@ -130,6 +134,8 @@ bool SdoClient::on_frame(CanBus& bus, const fw::CanFrame& frame, std::uint64_t n
   }
   const fw::SdoMessage& m = *r;
   if (m.type == fw::SdoType::kAbort) {
+    // Ends the transfer whatever its multiplexer (see abort_multiplexer_differed()).
+    abort_mux_differed_ = m.index != index_ || m.subindex != subindex_;
     status_ = SdoStatus::kAborted;
     abort_code_ = m.abort_code;
     phase_ = Phase::kNone;
@@ -159,12 +165,19 @@ bool SdoClient::on_frame(CanBus& bus, const fw::CanFrame& frame, std::uint64_t n
     case Phase::kUploadInitiate:
       if (m.type != fw::SdoType::kUploadInitiate) break;
       if (m.expedited) {
-        if (m.data_len > buffer_.size()) {
+        // e=1, s=0: the length is unspecified (4 data bytes on the wire, CiA 301 7.2.4.3.6);
+        // the object's own size says how many of them are the value.
+        std::size_t len = m.data_len;
+        if (!m.size_indicated)
+          len = (expected_size_ >= 1 && expected_size_ <= fw::kSdoExpeditedMax)
+                    ? expected_size_
+                    : std::min(buffer_.size(), fw::kSdoExpeditedMax);
+        if (len > buffer_.size()) {
           fail(bus, SdoStatus::kError, code(fw::SdoAbortCode::kLengthTooHigh), fw::Error::kTooLong);
           return true;
         }
-        std::copy_n(m.data.begin(), m.data_len, buffer_.begin());
-        uploaded_ = m.data_len;
+        std::copy_n(m.data.begin(), len, buffer_.begin());
+        uploaded_ = len;
         status_ = SdoStatus::kDone;
         phase_ = Phase::kNone;
         return true;

@@ -1,9 +1,11 @@
 #pragma once
 // Non-blocking SDO client for one server node (CiA 301 7.2.4.3): expedited and segmented
 // download (write) and upload (read), one transfer at a time, with a per-request timeout
-// and abort handling. No allocation: the caller owns the payload and receive buffers,
-// which must outlive the transfer. noexcept throughout, so it may run in any thread; the
-// blocking helper for set-up is CanopenMaster (drivers/canopen/master.hpp).
+// and abort handling. Every response form CiA 301 allows a server is accepted: expedited
+// upload with and without size indication, segmented upload with and without size, toggle
+// checked on every segment, an abort with any multiplexer. No allocation: the caller owns the
+// payload and receive buffers, which must outlive the transfer. noexcept throughout, so it may run
+// in any thread; the blocking helper for set-up is CanopenMaster (drivers/canopen/master.hpp).
 //
 // Timeout: measured from the last request frame sent (initiate or segment); the transfer
 // times out at exactly `timeout` after it (T - 1 ns: still busy). On timeout, on a
@@ -44,8 +46,13 @@ class SdoClient {
   SdoStatus download(CanBus& bus, std::uint16_t index, std::uint8_t subindex,
                      std::span<const std::uint8_t> data, std::uint64_t now_ns) noexcept;
   // Read index/subindex into `buffer` (expedited or segmented, whichever the server picks).
+  // `expected_size` (bytes, 0 = unknown) is the object's size from its data type: an
+  // expedited response without size indication (e=1, s=0, CiA 301 7.2.4.3.6) carries
+  // "unspecified" length, and the client takes expected_size bytes of it (unknown: the
+  // buffer's size, at most 4).
   SdoStatus upload(CanBus& bus, std::uint16_t index, std::uint8_t subindex,
-                   std::span<std::uint8_t> buffer, std::uint64_t now_ns) noexcept;
+                   std::span<std::uint8_t> buffer, std::uint64_t now_ns,
+                   std::size_t expected_size = 0) noexcept;
   // Takes a received frame. True when it was this client's (580h + node) and consumed.
   bool on_frame(CanBus& bus, const fw::CanFrame& frame, std::uint64_t now_ns) noexcept;
   // Checks the timeout; returns the current status.
@@ -58,6 +65,11 @@ class SdoClient {
   bool busy() const noexcept { return status_ == SdoStatus::kBusy; }
   // Abort code received (kAborted) or sent (kTimeout, kError); 0 otherwise.
   std::uint32_t abort_code() const noexcept { return abort_code_; }
+  // An abort from the server ends the transfer in progress whatever multiplexer it carries
+  // (one transfer per SDO channel at a time, CiA 301 7.2.4.3.17; servers are seen to send
+  // 0000h/00 in aborts of the segment phase): true when the received abort named another
+  // object than the transfer's (drivers/canopen/README.md "SDO").
+  bool abort_multiplexer_differed() const noexcept { return abort_mux_differed_; }
   const char* abort_text() const noexcept { return fw::sdo_abort_text(abort_code_); }
   // What went wrong for kError (e.g. kToggleMismatch, kSizeMismatch).
   fw::Error protocol_error() const noexcept { return protocol_error_; }
@@ -99,6 +111,8 @@ class SdoClient {
   std::span<std::uint8_t> buffer_{};
   fw::SdoSegmentReceiver receiver_{std::span<std::uint8_t>{}};
   std::size_t uploaded_ = 0;
+  std::size_t expected_size_ = 0;
+  bool abort_mux_differed_ = false;
   std::uint64_t unexpected_ = 0;
 };
 

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <set>
 #include <string>
 
 namespace dualv::fw {
@@ -279,6 +280,58 @@ TEST(Cia402, ModesAndOptions) {
 TEST(Cia402, Names) {
   EXPECT_EQ(std::string(to_string(S::kOperationEnabled)), "Operation enabled");
   EXPECT_EQ(std::string(to_string(Command::kFaultReset)), "fault reset");
+}
+
+// ---- one owner: host and drive sides derived from kTransitions -------------------------
+
+// The drive side agrees with the bit-level reading of table 29 (drive_reacts, written from
+// the standard independently of kTransitions) for every state and all 16 patterns of
+// controlword bits 0..3, 605Ah 5..8 (16 allowed) or not.
+TEST(Cia402OneOwner, SlaveTransitionMatchesTable29ForEveryControlword) {
+  for (S from : kAllStates) {
+    if (from == S::kNotReadyToSwitchOn || from == S::kFaultReactionActive || from == S::kFault)
+      continue;  // the drive moves on its own / only bit 7's edge acts
+    for (std::uint16_t bits = 0; bits < 16; ++bits) {
+      const std::optional<Transition> t = slave_transition(from, decode_command(bits), true);
+      const S expected = drive_reacts(from, bits, false);
+      EXPECT_EQ(t ? t->to : from, expected) << to_string(from) << " cw " << bits;
+      if (t) {
+        EXPECT_EQ(t->from, from);
+      }
+      // Without 605Ah 5..8, 16 is never taken.
+      const std::optional<Transition> no16 = slave_transition(from, decode_command(bits), false);
+      if (no16) {
+        EXPECT_NE(no16->number, 16);
+      }
+    }
+  }
+}
+
+// Every step the host commands (next_transition, for every state and target) is the
+// transition the drive side makes on the controlword the host sends for it.
+TEST(Cia402OneOwner, HostAndDriveAgreeOnEveryTransition) {
+  int checked = 0;
+  for (S from : kAllStates) {
+    for (S target : kAllStates) {
+      const std::optional<Transition> host = next_transition(from, target);
+      if (!host) continue;
+      ASSERT_TRUE(host->command.has_value());
+      if (host->number == 15) continue;  // the rising edge of bit 7, not a command pattern
+      const std::uint16_t cw = apply(*host->command, 0);
+      const std::optional<Transition> drive = slave_transition(from, decode_command(cw));
+      ASSERT_TRUE(drive.has_value()) << to_string(from) << " -> " << to_string(target);
+      EXPECT_EQ(drive->number, host->number) << to_string(from) << " -> " << to_string(target);
+      EXPECT_EQ(drive->to, host->to);
+      ++checked;
+    }
+  }
+  // Every commanded transition of the table except 15 and 16 is used by some walk.
+  std::set<int> used;
+  for (S from : kAllStates)
+    for (S target : kAllStates)
+      if (const auto t = next_transition(from, target)) used.insert(t->number);
+  EXPECT_EQ(used, (std::set<int>{2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 15}));
+  EXPECT_GE(checked, 16);  // at least the 4 commandable states x 4 targets
 }
 
 }  // namespace

@@ -8,9 +8,10 @@
 #include <cmath>
 #include <vector>
 
+#include "drivers/canopen_config.hpp"
 #include "firmware_if/firmware_if.hpp"
-#include "tests/support/allocation_counter.hpp"
 #include "tests/sim/sim_fixture.hpp"
+#include "tests/support/allocation_counter.hpp"
 
 namespace dualv::sim {
 namespace {

@@ -6,6 +6,10 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
 
 #include "drivers/canopen/clock.hpp"
 #include "drivers/canopen/waiter.hpp"
@@ -17,6 +21,13 @@
 
 namespace dualv::sim {
 namespace {
+
+std::vector<fw::CanFrame> drain_all(drivers::InProcessBus& bus) {
+  std::vector<fw::CanFrame> out;
+  fw::CanFrame f;
+  while (bus.receive(f) == drivers::BusStatus::kOk) out.push_back(f);
+  return out;
+}
 
 // The master's blocking waits step the rig (and the master's clock with it) in 0.1 ms.
 class RigWaiter final : public drivers::canopen::Waiter {
@@ -110,6 +121,159 @@ TEST_F(MasterEmulator, EstopInputStopsEveryDriveAndIsReported) {
     EXPECT_EQ(rig.emulator().status(i).torque_nm, 0.0);
     EXPECT_NE(fb.drive[static_cast<std::size_t>(i)].state, drivers::DriveState::kEnabled);
   }
+}
+
+// Issue 12 point 5, driver side: a drive fault whose cause remains, then goes. The host
+// sees the EMCY and Fault; kFaultReset makes a rising edge of controlword bit 7 (CiA 402
+// transition 15); the emulator refuses it while the cause remains; once it is gone the
+// drive reaches Switch on disabled, the EMCY 0000h clears the host's EMCY, and nothing
+// re-enables by itself.
+TEST_F(MasterEmulator, DriveFaultClearsOnTheHostAfterResetOnceTheCauseIsGone) {
+  boot();
+  for (int k = 0; k < 20; ++k) cycle(drivers::DriveRequest::kEnable);
+  ASSERT_EQ(fb.drive[1].state, drivers::DriveState::kEnabled);
+  rig.emulator().hold_fault(1, fw::emcy::kDeviceOverTemperature);
+  for (int k = 0; k < 3; ++k) cycle(drivers::DriveRequest::kHold);
+  EXPECT_EQ(fb.drive[1].state, drivers::DriveState::kFault);
+  EXPECT_EQ(fb.drive[1].last_emcy, fw::emcy::kDeviceOverTemperature);
+  EXPECT_EQ(actuators->health(1).health, drivers::DriveHealth::kError);
+
+  // Reset while the cause remains: refused by the drive, the host stays in Fault.
+  (void)drain_all(rig.monitor_bus());
+  for (int k = 0; k < 10; ++k) cycle(drivers::DriveRequest::kFaultReset);
+  std::vector<std::uint16_t> cw2;  // controlwords sent to node 2 (RPDO1 202h)
+  for (const fw::CanFrame& f : drain_all(rig.monitor_bus()))
+    if (f.id == 0x202) cw2.push_back(fw::get_u16_le(f.data.data()));
+  ASSERT_GE(cw2.size(), 2u);
+  EXPECT_EQ(cw2[0] & fw::cw::kFaultReset, 0);  // bit 7 low first ...
+  EXPECT_NE(cw2[1] & fw::cw::kFaultReset, 0);  // ... then high: the rising edge
+  EXPECT_GE(rig.emulator().status(1).counters.fault_resets_refused, 1u);
+  EXPECT_EQ(fb.drive[1].state, drivers::DriveState::kFault);
+  EXPECT_EQ(fb.drive[1].last_emcy, fw::emcy::kDeviceOverTemperature);
+
+  // The cause goes; a new reset request (a new edge) works.
+  rig.emulator().release_fault(1);
+  cycle(drivers::DriveRequest::kHold);
+  for (int k = 0; k < 10; ++k) cycle(drivers::DriveRequest::kFaultReset);
+  EXPECT_EQ(rig.emulator().status(1).state, fw::Cia402State::kSwitchOnDisabled);
+  EXPECT_EQ(rig.emulator().status(1).last_transition, 15);
+  EXPECT_EQ(fb.drive[1].state, drivers::DriveState::kDisabled);
+  EXPECT_EQ(fb.drive[1].last_emcy, 0);  // EMCY 0000h received
+  const drivers::DriveHealthReport h = actuators->health(1);
+  EXPECT_FALSE(h.emcy_active);
+  EXPECT_NE(h.health, drivers::DriveHealth::kError) << h.reason;
+
+  // Nothing re-enables by itself, however long the reset or hold is given.
+  for (int k = 0; k < 100; ++k)
+    cycle(k % 2 ? drivers::DriveRequest::kHold : drivers::DriveRequest::kFaultReset);
+  EXPECT_EQ(rig.emulator().status(1).state, fw::Cia402State::kSwitchOnDisabled);
+  EXPECT_EQ(rig.emulator().status(1).torque_nm, 0.0);
+  // A new enable does.
+  cycle(drivers::DriveRequest::kHold);
+  for (int k = 0; k < 20; ++k) cycle(drivers::DriveRequest::kEnable);
+  EXPECT_EQ(fb.drive[1].state, drivers::DriveState::kEnabled);
+}
+
+// Issue 13 defect 6: shutdown leaves the drives disabled and NMT pre-operational, from the
+// frames on the wire.
+TEST_F(MasterEmulator, ShutDownDisablesThenEntersPreOperational) {
+  boot();
+  for (int k = 0; k < 20; ++k) cycle(drivers::DriveRequest::kEnable);
+  ASSERT_EQ(rig.emulator().status(0).state, fw::Cia402State::kOperationEnabled);
+  (void)drain_all(rig.monitor_bus());
+  std::vector<std::string> log;
+  EXPECT_TRUE(actuators->shut_down(waiter, [&](const std::string& l) { log.push_back(l); }));
+  rig.step(can.sync_period_ns);  // the emulator handles the NMT frames
+  const std::vector<fw::CanFrame> wire = drain_all(rig.monitor_bus());
+  // Every RPDO after the call: disable voltage, torque 0; each cycle ends in SYNC.
+  int rpdos = 0, syncs = 0;
+  std::size_t first_nmt = wire.size(), last_sync = 0;
+  for (std::size_t k = 0; k < wire.size(); ++k) {
+    const fw::CanFrame& f = wire[k];
+    if (f.id >= 0x201 && f.id <= 0x204) {
+      ++rpdos;
+      // Disable voltage: bit 1 (enable voltage) low, CiA 402-2 table 29 (xxxx xx0x).
+      EXPECT_EQ(fw::get_u16_le(f.data.data()) & fw::cw::kEnableVoltage, 0) << "controlword";
+      EXPECT_EQ(fw::get_u16_le(f.data.data() + 2), 0) << "torque";
+    }
+    if (f.id == 0x080) {
+      ++syncs;
+      last_sync = k;
+    }
+    if (f.id == 0x000 && first_nmt == wire.size()) first_nmt = k;
+  }
+  EXPECT_EQ(syncs, 5);
+  EXPECT_EQ(rpdos, 20);
+  // Then NMT enter pre-operational (80h) to each node, after the last SYNC.
+  ASSERT_LT(first_nmt, wire.size());
+  EXPECT_GT(first_nmt, last_sync);
+  std::vector<std::string> nmt;
+  for (const fw::CanFrame& f : wire)
+    if (f.id == 0x000) nmt.push_back(fmt::format("{:02X}{:02X}", f.data[0], f.data[1]));
+  EXPECT_EQ(nmt, (std::vector<std::string>{"8001", "8002", "8003", "8004"}));
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(rig.emulator().status(i).state, fw::Cia402State::kSwitchOnDisabled) << i;
+    EXPECT_EQ(rig.emulator().status(i).nmt, EmulatedNmt::kPreOperational) << i;
+  }
+  ASSERT_EQ(log.size(), 2u);
+  EXPECT_NE(log[0].find("disable voltage"), std::string::npos) << log[0];
+  EXPECT_NE(log[0].find("node 4: Switch on disabled"), std::string::npos) << log[0];
+  EXPECT_NE(log[1].find("NMT enter pre-operational sent to nodes 1, 2, 3, 4"), std::string::npos)
+      << log[1];
+}
+
+TEST_F(MasterEmulator, ShutDownAsConfigured) {
+  can.on_exit = drivers::OnExit::kStopped;
+  boot();
+  for (int k = 0; k < 20; ++k) cycle(drivers::DriveRequest::kEnable);
+  std::vector<std::string> log;
+  actuators->shut_down(waiter, [&](const std::string& l) { log.push_back(l); });
+  rig.step(can.sync_period_ns);
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(rig.emulator().status(i).nmt, EmulatedNmt::kStopped);
+
+  can.on_exit = drivers::OnExit::kOperationalDisabled;
+  actuators.reset();
+  boot();
+  for (int k = 0; k < 20; ++k) cycle(drivers::DriveRequest::kEnable);
+  log.clear();
+  actuators->shut_down(waiter, [&](const std::string& l) { log.push_back(l); });
+  rig.step(can.sync_period_ns);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(rig.emulator().status(i).nmt, EmulatedNmt::kOperational);
+    EXPECT_EQ(rig.emulator().status(i).state, fw::Cia402State::kSwitchOnDisabled);
+  }
+  ASSERT_EQ(log.size(), 2u);
+  EXPECT_NE(log[1].find("operational_disabled"), std::string::npos);
+}
+
+// Issue 13: a drive that answers uploads without size and lacks 60C2h boots with the shipped
+// configuration and closes the loop.
+TEST_F(MasterEmulator, ForeignDriveBootsAndRuns) {
+  DriveEmulatorConfig foreign = emulator_config_from(can);
+  foreign.upload_without_size = true;
+  foreign.absent_objects = {0x60C2};
+  InProcessCanRig frig(test::dual_v(), load_plant_config_file(test::config_file()), foreign);
+  drivers::canopen::ManualClock fclock;
+  RigWaiter fwaiter(frig, fclock);
+  std::vector<std::string> log;
+  auto set = drivers::boot_actuator_set(frig.master_bus(), fclock, fwaiter, can,
+                                        [&](const std::string& l) { log.push_back(l); });
+  int skipped = 0;
+  for (const std::string& l : log)
+    skipped += l.find("interpolation_period skipped") != std::string::npos;
+  EXPECT_EQ(skipped, 4);
+  drivers::ActuatorFeedback f;
+  drivers::ActuatorCommand cmd;
+  cmd.n = 4;
+  for (int k = 0; k < 30; ++k) {
+    set->read(f);
+    cmd.request = drivers::DriveRequest::kEnable;
+    set->write(cmd);
+    frig.step(can.sync_period_ns);
+    fclock.set_ns(frig.now_ns());
+  }
+  for (int i = 0; i < 4; ++i)
+    EXPECT_EQ(f.drive[static_cast<std::size_t>(i)].state, drivers::DriveState::kEnabled) << i;
 }
 
 }  // namespace

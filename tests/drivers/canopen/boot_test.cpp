@@ -100,6 +100,7 @@ TEST(Boot, GoldenFramesPerDriveLayout) {
       "601#2B5A600002000000", "601#405A600000000000",  // 605Ah = 2
       "601#2B5E600002000000", "601#405E600000000000",  // 605Eh = 2
       "601#2B07600003000000", "601#4007600000000000",  // 6007h = 3 (quick stop)
+      "601#23061000E8030000", "601#4006100000000000",  // 1006h = 1000 us
       "601#2FC2600101000000", "601#40C2600100000000",  // 60C2h.1 = 1
       "601#2FC26002FD000000", "601#40C2600200000000",  // 60C2h.2 = -3 (1 x 10^-3 s)
       "601#2316100196007F00", "601#4016100100000000",  // 1016h.1 = node 127, 150 ms
@@ -190,6 +191,106 @@ TEST(Boot, NodeThatNeverStartsNamed) {
         << e.what();
   }
   EXPECT_EQ(b.master_frames().back(), "000#8001");  // back to pre-operational
+}
+
+// Issue 13 defect 1: a drive whose SDO server answers every expedited upload without size
+// indication (42h, CiA 301 7.2.4.3.6) boots; the read-backs take the object's own size.
+TEST(Boot, DriveAnsweringUploadsWithoutSizeBoots) {
+  Bench b(1);
+  b.slave(0).upload_without_size = true;
+  CanConfig c = config_for(1);
+  CanopenMaster m(b.master_bus(), b.clock, *b.waiter, drivers::master_config(c));
+  boot_drives(m, c);
+  EXPECT_EQ(b.slave(0).nmt, fw::NmtState::kOperational);
+  bool saw_42 = false;
+  for (const fw::CanFrame& f : test::drain(b.sniffer()))
+    saw_42 = saw_42 || (f.id == 0x581 && f.data[0] == 0x42);
+  EXPECT_TRUE(saw_42);
+  EXPECT_EQ(m.read(1, fw::od::kProducerHeartbeat), 50u);
+}
+
+// Issue 13 defect 4: a drive without 60C2h (06020000h) boots when the object is optional
+// (the shipped default); the skip is logged, and the object's other writes are not sent.
+TEST(Boot, OptionalObjectTheDriveLacksIsSkippedAndLogged) {
+  Bench b(2);
+  b.slave(1).abort_on_write[{0x60C2, 1}] =
+      static_cast<std::uint32_t>(fw::SdoAbortCode::kObjectDoesNotExist);
+  CanConfig c = config_for(2);
+  CanopenMaster m(b.master_bus(), b.clock, *b.waiter, drivers::master_config(c));
+  std::vector<std::string> log;
+  const std::vector<SkippedObject> skipped =
+      boot_drives(m, c, [&](const std::string& line) { log.push_back(line); });
+  ASSERT_EQ(skipped.size(), 1u);
+  EXPECT_EQ(skipped[0].node, 2);
+  EXPECT_EQ(skipped[0].object, "interpolation_period");
+  ASSERT_EQ(log.size(), 1u);
+  EXPECT_EQ(log[0],
+            "node 2: interpolation_period skipped (optional): 60C2h sub1 (interpolation time "
+            "period value) aborted 06020000h object does not exist in the object dictionary");
+  EXPECT_EQ(b.slave(0).nmt, fw::NmtState::kOperational);
+  EXPECT_EQ(b.slave(1).nmt, fw::NmtState::kOperational);
+  const auto frames = b.master_frames();
+  EXPECT_EQ(std::count(frames.begin(), frames.end(), "602#2FC26002FD000000"), 0);  // sub2
+  EXPECT_EQ(std::count(frames.begin(), frames.end(), "601#2FC26002FD000000"), 1);
+  // The writes after the skipped object still happen: 1016h sub1 on node 2.
+  EXPECT_EQ(b.slave(1).get(fw::od::consumer_heartbeat(1)), 0x007F0096u);
+}
+
+TEST(Boot, RequiredObjectTheDriveLacksFailsNamingThePolicy) {
+  Bench b(1);
+  b.slave(0).abort_on_write[{0x60C2, 1}] =
+      static_cast<std::uint32_t>(fw::SdoAbortCode::kObjectDoesNotExist);
+  CanConfig c = config_for(1);
+  c.drives[0].objects.interpolation_period = ObjectPolicy::kRequired;
+  CanopenMaster m(b.master_bus(), b.clock, *b.waiter, drivers::master_config(c));
+  try {
+    boot_drives(m, c);
+    FAIL() << "no error";
+  } catch (const SdoError& e) {
+    EXPECT_NE(std::string(e.what()).find("(can.objects.interpolation_period is required; make it "
+                                         "optional to boot this drive without it)"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(b.slave(0).nmt, fw::NmtState::kPreOperational);
+}
+
+TEST(Boot, OptionalObjectOtherAbortsStillFail) {
+  // 06090030h (invalid value) is not "the drive lacks it": never skipped.
+  Bench b(1);
+  b.slave(0).abort_on_write[{0x60C2, 1}] =
+      static_cast<std::uint32_t>(fw::SdoAbortCode::kInvalidValue);
+  CanConfig c = config_for(1);
+  CanopenMaster m(b.master_bus(), b.clock, *b.waiter, drivers::master_config(c));
+  EXPECT_THROW(boot_drives(m, c), SdoError);
+}
+
+TEST(Boot, ObjectsOffAreNeverWritten) {
+  Bench b(1);
+  CanConfig c = config_for(1);
+  c.drives[0].objects.interpolation_period = ObjectPolicy::kOff;
+  c.drives[0].objects.cycle_period = ObjectPolicy::kOff;
+  c.drives[0].objects.digital_inputs = ObjectPolicy::kOff;
+  CanopenMaster m(b.master_bus(), b.clock, *b.waiter, drivers::master_config(c));
+  boot_drives(m, c);
+  for (const std::string& f : b.master_frames()) {
+    EXPECT_EQ(f.find("601#2FC260"), std::string::npos) << f;
+    EXPECT_EQ(f.find("601#23061000"), std::string::npos) << f;
+    EXPECT_EQ(f.find("601#23011801"), std::string::npos) << f;  // 1801h TPDO2
+  }
+}
+
+TEST(Boot, CommunicationCyclePeriodWritten) {
+  // Issue 13 defect 5: 1006h = SYNC period in us (2.5 ms -> 2500 = 09C4h).
+  Bench b(1);
+  CanConfig c = config_for(1);
+  c.sync_period_ns = 2'500'000;
+  c.transition_timeout_ns = 500'000'000;
+  CanopenMaster m(b.master_bus(), b.clock, *b.waiter, drivers::master_config(c));
+  boot_drives(m, c);
+  EXPECT_EQ(b.slave(0).get(fw::od::kCommunicationCyclePeriod), 2500u);
+  const auto frames = b.master_frames();
+  EXPECT_EQ(std::count(frames.begin(), frames.end(), "601#23061000C4090000"), 1);
 }
 
 TEST(Boot, SdoAbortNamesNodeObjectAndText) {

@@ -4,9 +4,11 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <string>
 
 #include "common/config_error.hpp"
+#include "common/yaml_reader.hpp"
 
 namespace dualv::drivers {
 namespace {
@@ -195,6 +197,110 @@ TEST(CanConfigRules, MaxTorque) {
   expect_error("can: {drives: [{node_id: 1, rated_torque: 0.001, max_torque: 100}]}",
                "more than 65535 per mille");
 }
+// Issue 13 defect 7: 1000 N m was accepted and 6072h = 20000 per mille written.
+TEST(CanConfigRules, MaxTorqueAboveThePeakRefused) {
+  // 1000 N m / 50 N m rated = 20000 per mille; the peak 127 N m = 2540 per mille.
+  expect_error("can: {drives: [{node_id: 1, max_torque: 1000}]}",
+               "can.drives[0].max_torque: 1000 N m (6072h = 20000 per mille of 6076h = 50 N m) is "
+               "above the drive's peak can.drives[0].peak_torque = 127 N m (2540 per mille)");
+  expect_error("can: {drives: [{node_id: 1, max_torque: 60, peak_torque: 55}]}",
+               "can.drives[0].max_torque: 60 N m");
+  EXPECT_NO_THROW(load("can: {drives: [{node_id: 1, max_torque: 127, peak_torque: 127}]}"));
+}
+TEST(CanConfigRules, MaxTorqueAboveTheSafetyLimitRefused) {
+  const YAML::Node n = YAML::Load("can: {drives: [{node_id: 1, max_torque: 80}]}")["can"];
+  EXPECT_NO_THROW(load_can_config(n));  // no safety limit given: only the peak counts
+  try {
+    (void)load_can_config(n, 60.0);
+    FAIL() << "no error";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("can.drives[0].max_torque: 80 N m is above the safety "
+                                         "limit safety.torque.max = 60 N m"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_NO_THROW(load_can_config(n, 80.0));
+  EXPECT_THROW(check_torque_limits(load_can_config(n), 79.9), ConfigError);
+}
+TEST(CanConfigRules, SafetyLimitReadFromTheSameFile) {
+  const YAML::Node root =
+      YAML::Load("safety: {torque: {max: 40.0}}\ncan: {drives: [{node_id: 1, max_torque: 45}]}");
+  EXPECT_DOUBLE_EQ(safety_torque_max_of(root), 40.0);
+  EXPECT_DOUBLE_EQ(safety_torque_max_of(YAML::Load("can: {}")), 60.0);  // safety's default
+  const std::string path = ::testing::TempDir() + "/can_safety_limit.yaml";
+  {
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    ASSERT_NE(f, nullptr);
+    std::fputs(
+        "safety:\n  torque:\n    max: 40.0\ncan:\n  drives:\n    - {node_id: 1, "
+        "max_torque: 45}\n",
+        f);
+    std::fclose(f);
+  }
+  try {
+    (void)load_can_config_file(path);
+    FAIL() << "no error";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("safety.torque.max = 40 N m"), std::string::npos)
+        << e.what();
+  }
+}
+TEST(CanConfigRules, ShippedTorquesWithinPeakAndSafety) {
+  const std::string path = std::string(DUALV_SOURCE_DIR) + "/config/dualv.yaml";
+  const CanConfig c = load_can_config_file(path);
+  EXPECT_NO_THROW(check_torque_limits(c, safety_torque_max_of(YamlReader::load_file(path))));
+}
+
+// ---- boot object policies (issue 13 defect 4) -----------------------------------------
+TEST(CanConfig, ObjectPoliciesDefaultsAndOverrides) {
+  const CanConfig d = default_can_config();
+  EXPECT_EQ(d.drives[0].objects.interpolation_period, ObjectPolicy::kOptional);
+  EXPECT_EQ(d.drives[0].objects.cycle_period, ObjectPolicy::kOptional);
+  EXPECT_EQ(d.drives[0].objects.abort_connection, ObjectPolicy::kRequired);
+  EXPECT_EQ(d.drives[0].objects.consumer_heartbeat, ObjectPolicy::kRequired);
+  const CanConfig c = load(R"(
+can:
+  objects: {interpolation_period: required, quick_stop: optional}
+  drives:
+    - {node_id: 1}
+    - {node_id: 2, objects: {interpolation_period: off, fault_reaction: off}}
+)");
+  EXPECT_EQ(c.drives[0].objects.interpolation_period, ObjectPolicy::kRequired);
+  EXPECT_EQ(c.drives[0].objects.quick_stop, ObjectPolicy::kOptional);
+  EXPECT_EQ(c.drives[0].objects.fault_reaction, ObjectPolicy::kRequired);
+  EXPECT_EQ(c.drives[1].objects.interpolation_period, ObjectPolicy::kOff);
+  EXPECT_EQ(c.drives[1].objects.quick_stop, ObjectPolicy::kOptional);  // from can.objects
+  EXPECT_EQ(c.drives[1].objects.fault_reaction, ObjectPolicy::kOff);
+}
+TEST(CanConfigRules, ObjectPolicyValuesAndKeys) {
+  expect_error("can: {objects: {interpolation_period: maybe}}",
+               "can.objects.interpolation_period: must be required, optional or off (got 'maybe')");
+  expect_error("can: {drives: [{node_id: 1, objects: {interpolation_period: sometimes}}]}",
+               "can.drives[0].objects.interpolation_period: must be required, optional or off");
+  expect_error("can: {objects: {no_such_object: off}}", "no_such_object");
+}
+TEST(CanConfigRules, NoAbortConnectionNeedsTheHeartbeatConsumer) {
+  expect_error("can: {objects: {abort_connection: optional, consumer_heartbeat: optional}}",
+               "can.drives[0].objects.consumer_heartbeat: must be required when "
+               "can.drives[0].objects.abort_connection is optional");
+  expect_error(
+      "can: {drives: [{node_id: 1, objects: {abort_connection: off, "
+      "consumer_heartbeat: off}}]}",
+      "can.drives[0].objects.consumer_heartbeat: must be required");
+  EXPECT_NO_THROW(load("can: {objects: {abort_connection: off}}"));
+}
+TEST(CanConfigRules, NoHeartbeatConsumerNeedsTheRpdoDeadline) {
+  expect_error("can: {rpdo_deadline: 0, objects: {consumer_heartbeat: off}}",
+               "needs can.rpdo_deadline > 0");
+  EXPECT_NO_THROW(load("can: {objects: {consumer_heartbeat: off}}"));
+}
+TEST(CanConfig, OnExit) {
+  EXPECT_EQ(default_can_config().on_exit, OnExit::kPreOperational);
+  EXPECT_EQ(load("can: {on_exit: stopped}").on_exit, OnExit::kStopped);
+  EXPECT_EQ(load("can: {on_exit: operational_disabled}").on_exit, OnExit::kOperationalDisabled);
+  expect_error("can: {on_exit: off}", "can.on_exit: must be preoperational, stopped or");
+}
+
 TEST(CanConfigRules, EveryProblemListedAtOnce) {
   try {
     (void)load("can: {bitrate: 5, master: {node_id: 0}, drives: [{node_id: 1, max_torque: 0}]}");

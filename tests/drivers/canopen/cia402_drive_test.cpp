@@ -101,6 +101,27 @@ TEST(Cia402Drive, FromFaultOnlyAfterExplicitResetOnARisingEdge) {
   EXPECT_EQ(l.state, S::kOperationEnabled);
 }
 
+// Issue 12 point 5: the drive refused the first edge (its fault's cause remained); a new
+// kFaultReset request, before the transition timeout, must give it a new rising edge.
+TEST(Cia402Drive, NewFaultResetRequestGivesANewRisingEdge) {
+  Cia402Drive d{kTimeout};
+  d.on_statusword(fw::statusword_bits(S::kFault), 0);
+  std::vector<std::uint16_t> cw;
+  auto step = [&](DriveRequest r, std::uint64_t t) {
+    d.on_statusword(fw::statusword_bits(S::kFault), t);  // the drive stays in Fault
+    cw.push_back(d.update(r, t).controlword & fw::cw::kFaultReset);
+  };
+  step(DriveRequest::kFaultReset, 1 * kMs);  // low
+  step(DriveRequest::kFaultReset, 2 * kMs);  // high: refused by the drive
+  step(DriveRequest::kHold, 3 * kMs);        // still high (reset in progress)
+  step(DriveRequest::kFaultReset, 4 * kMs);  // new request: low again ...
+  step(DriveRequest::kFaultReset, 5 * kMs);  // ... then high: a new rising edge
+  EXPECT_EQ(cw, (std::vector<std::uint16_t>{0, fw::cw::kFaultReset, fw::cw::kFaultReset, 0,
+                                            fw::cw::kFaultReset}));
+  EXPECT_EQ(d.fault_resets(), 2u);
+  EXPECT_FALSE(d.transition_timed_out());
+}
+
 TEST(Cia402Drive, FaultResetTimesOutAtExactlyT) {
   Loop l;
   l.state = S::kFault;

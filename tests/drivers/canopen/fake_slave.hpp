@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <map>
 #include <set>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -43,6 +44,9 @@ class FakeSlave {
   bool ignores_writes = false;  // SDO write confirmed but value not stored (read-back test)
   bool cia402_stuck = false;    // ignores controlwords (transition timeout tests)
   bool fault_reset_works = true;
+  // Expedited upload responses without size indication (42h, 4 data bytes, CiA 301
+  // 7.2.4.3.6), as some vendors' stacks answer.
+  bool upload_without_size = false;
   int ignore_nmt_starts = 0;  // the next n NMT start commands are lost
   std::map<Key, std::uint32_t> abort_on_write;
   std::map<Key, std::uint32_t> abort_on_read;
@@ -190,16 +194,8 @@ class FakeSlave {
       if (rising7 && fault_reset_works) cia = fw::Cia402State::kSwitchOnDisabled;
       return;
     }
-    const fw::Command c = fw::decode_command(cw);
-    for (const fw::Transition& t : fw::kTransitions) {
-      if (t.from != cia || !t.command) continue;
-      const bool same = *t.command == c || (c == fw::Command::kSwitchOn &&
-                                            *t.command == fw::Command::kDisableOperation);
-      if (same && t.number != 16) {
-        cia = t.to;
-        return;
-      }
-    }
+    // The drive side of firmware_if's transition table, as the emulator uses it.
+    if (const auto t = fw::slave_transition(cia, fw::decode_command(cw))) cia = t->to;
   }
 
   void sdo(const fw::CanFrame& f) {
@@ -246,7 +242,15 @@ class FakeSlave {
                              fw::SdoAbortCode::kObjectDoesNotExist));
           return;
         }
-        if (it->second.size() <= 4) {
+        if (it->second.size() <= 4 && upload_without_size) {
+          fw::CanFrame r;
+          r.id = fw::cob_id(fw::Function::kSdoTx, node_);
+          r.dlc = 8;
+          r.data = {0x42, static_cast<std::uint8_t>(m.index),
+                    static_cast<std::uint8_t>(m.index >> 8), m.subindex};
+          std::copy(it->second.begin(), it->second.end(), r.data.begin() + 4);
+          (void)bus_.send(r);
+        } else if (it->second.size() <= 4) {
           send(fw::sdo_upload_expedited_response(node_, m.index, m.subindex, it->second));
         } else {
           up_buf_ = it->second;
@@ -315,6 +319,18 @@ inline std::string to_text(const fw::CanFrame& f) {
     s += hex[f.data[i] & 0xF];
   }
   return s;
+}
+
+// The inverse of to_text: "581#4217100032000000" (hex id, '#', 0..8 hex bytes).
+inline fw::CanFrame from_text(const std::string& text) {
+  fw::CanFrame f;
+  const std::size_t hash = text.find('#');
+  f.id = static_cast<std::uint32_t>(std::stoul(text.substr(0, hash), nullptr, 16));
+  const std::string data = text.substr(hash + 1);
+  f.dlc = static_cast<std::uint8_t>(data.size() / 2);
+  for (std::size_t i = 0; i < f.dlc; ++i)
+    f.data[i] = static_cast<std::uint8_t>(std::stoul(data.substr(2 * i, 2), nullptr, 16));
+  return f;
 }
 
 inline std::vector<fw::CanFrame> drain(InProcessBus& bus) {
