@@ -290,7 +290,7 @@ int run(const RunArgs& args) {
       variants.clear();
       variants.push_back(paper_variants().front());
     }
-    const drivers::CanConfig can = drivers::load_can_config(YamlReader::load_file(cfg.path)["can"]);
+    const drivers::CanConfig can = drivers::load_can_config_file(cfg.path);
     rpdo_deadline_ns = can.rpdo_deadline_ns;
     drivers::CanopenSetupOptions opts;
     opts.interface = args.can;
@@ -372,9 +372,11 @@ int run(const RunArgs& args) {
       fmt::print("dualv run: control loop running {:.1f} ms after the drives were primed\n",
                  gap_ms);
   }
+  const auto leave_log = [](const std::string& line) { fmt::print("  {}\n", line); };
   if (args.serve) {
     const int rc = serve(cfg, machine, *commands, service);
     machine.shutdown();
+    if (drives) drives->shut_down(leave_log);  // disabled, then as can.on_exit says
     return rc;
   }
 
@@ -416,6 +418,7 @@ int run(const RunArgs& args) {
                r.ok ? "" : ": " + r.failure);
   }
   const control::RunReport loop_report = machine.shutdown();
+  if (drives) drives->shut_down(leave_log);  // disabled, then as can.on_exit says
   for (auto& r : runs) r.loop = loop_report.stats;
   // The loop is over: systemd stops watching while the results are written.
   std::string ending;

@@ -88,12 +88,15 @@ class SimBackend final : public Backend {
 class CanBackend final : public Backend {
  public:
   CanBackend(const RobotConfig& cfg, const std::string& iface) {
-    drivers::CanConfig can = drivers::load_can_config(YamlReader::load_file(cfg.path)["can"]);
+    drivers::CanConfig can = drivers::load_can_config_file(cfg.path);
     drivers_ = drivers::open_canopen_drives(
         can, {iface, cfg.period(), [](const std::string& s) { fmt::print("  {}\n", s); }});
     make_machine(cfg, drivers_->actuators(), Pacing::kCallerThread, nullptr);
   }
-  ~CanBackend() override { machine_.reset(); }
+  ~CanBackend() override {
+    machine_.reset();  // the loop ends: drives disabled; then as can.on_exit says
+    drivers_->shut_down([](const std::string& s) { fmt::print("  {}\n", s); });
+  }
   const drivers::CanopenActuatorSet& canopen() const { return drivers_->actuators(); }
 
  private:

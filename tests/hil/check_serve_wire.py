@@ -1,0 +1,193 @@
+#!/usr/bin/env python3
+"""Checks a `candump -l` capture of a `dualv run --serve --can` session (serve_can_hil.sh).
+
+Standard library only (runs with Debian's /usr/bin/python3 inside the user-mode-linux guest).
+Reads can.rpdo_deadline, can.drives (node_id, rated_torque, max_torque) and safety.torque.max
+from the configuration the service used, and checks, between the first and the last SYNC on
+the wire (the service's loop runs from boot to shutdown: idle, programs, stream, stops):
+  - no gap between consecutive SYNCs (080h), nor between consecutive RPDO1s of one drive
+    (200h + node), longer than can.rpdo_deadline. The guest cannot keep that timing when the
+    host freezes it as a whole (host load): with --stalls FILE (the guest's stall probe,
+    serve_can_hil.sh), a gap is excused when, without the time the whole guest was frozen
+    within it, it is within the deadline; excused gaps are counted and printed, never hidden
+  - every SYNC after each drive's first RPDO has exactly one RPDO of every drive since the
+    previous SYNC (this does not depend on timing: the loop never skips a drive in a cycle)
+  - no target torque above min(safety.torque.max, the drive's max_torque), from per mille of
+    the drive's rated_torque (RPDO1: controlword u16 + target torque i16, little endian;
+    firmware_if/pdo.hpp), half an LSB allowed
+  - with --expect-enables N: exactly N enable episodes (spans in which some drive's
+    controlword is "enable operation", 0Fh); each program or stream that ran is one
+Exit status 0 when everything holds, 1 otherwise (every problem is printed).
+"""
+import argparse
+import re
+import sys
+
+
+def parse_config(path):
+    text = open(path).read()
+    drives = []
+    for m in re.finditer(r"-\s*\{([^}]*node_id[^}]*)\}", text):
+        fields = dict(re.findall(r"(\w+):\s*([-0-9.eE+]+)", m.group(1)))
+        drives.append({
+            "node": int(fields["node_id"]),
+            "rated": float(fields["rated_torque"]),
+            "max": float(fields["max_torque"]),
+        })
+    if not drives:
+        raise SystemExit(f"check_serve_wire: no can.drives entries in {path}")
+    layout = re.search(r"\n\s+rpdo_layout:\s*(\w+)", text)
+    if layout and layout.group(1) != "per_drive":
+        raise SystemExit(f"check_serve_wire: rpdo_layout {layout.group(1)}: only per_drive is checked")
+    can = text[text.index("\ncan:"):]
+    deadline = re.search(r"\n  rpdo_deadline:\s*([0-9.eE+-]+)", can)
+    if not deadline or float(deadline.group(1)) <= 0:
+        raise SystemExit(f"check_serve_wire: no positive can.rpdo_deadline in {path}")
+    safety = text[text.index("\nsafety:"):]
+    torque = re.search(r"\n\s+torque:\s*\n\s+max:\s*([0-9.]+)", safety)
+    if not torque:
+        raise SystemExit(f"check_serve_wire: no safety.torque.max in {path}")
+    return drives, float(deadline.group(1)), float(torque.group(1))
+
+
+def frames(path):
+    pat = re.compile(r"^\((\d+\.\d+)\)\s+(\S+)\s+([0-9A-Fa-f]+)#([0-9A-Fa-f]*)$")
+    for line in open(path):
+        m = pat.match(line.strip())
+        if m:
+            yield float(m.group(1)), int(m.group(3), 16), bytes.fromhex(m.group(4))
+
+
+def parse_stalls(path):
+    """Intervals (a, b) in CLOCK_REALTIME seconds in which the guest's probe did not run."""
+    out = []
+    if path:
+        for line in open(path):
+            p = line.split()
+            if len(p) == 2:
+                out.append((float(p[0]), float(p[1])))
+    return out
+
+
+def frozen_within(stalls, t1, t2):
+    return sum(max(0.0, min(b, t2) - max(a, t1)) for a, b in stalls)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--config", required=True, help="the YAML the service used")
+    ap.add_argument("--stalls", help="the guest stall probe's intervals (start end per line)")
+    ap.add_argument("--expect-enables", type=int, help="number of enable episodes expected")
+    ap.add_argument("capture", help="candump -l log")
+    a = ap.parse_args()
+    drives, deadline, safety_max = parse_config(a.config)
+    stalls = parse_stalls(a.stalls)
+    by_cob = {0x200 + d["node"]: d for d in drives}
+    errors = []
+    allf = list(frames(a.capture))
+    sync_ts = [ts for ts, cob, _ in allf if cob == 0x080]
+    if len(sync_ts) < 2:
+        print(f"check_serve_wire: {len(sync_ts)} SYNCs on the wire: FAILED")
+        return 1
+    first, last = sync_ts[0], sync_ts[-1]
+
+    gaps = {"SYNC": 0, "RPDO": 0}
+    excused = {"SYNC": 0, "RPDO": 0}
+    worst = {"SYNC": 0.0, "RPDO": 0.0}
+    worst_unexcused = {"SYNC": 0.0, "RPDO": 0.0}
+
+    def gap(kind, what, t1, t2):
+        g = t2 - t1
+        worst[kind] = max(worst[kind], g)
+        if g <= deadline:
+            return
+        frozen = frozen_within(stalls, t1, t2)
+        if g - frozen <= deadline:
+            excused[kind] += 1
+            return
+        gaps[kind] += 1
+        worst_unexcused[kind] = max(worst_unexcused[kind], g - frozen)
+        if gaps[kind] <= 10:
+            errors.append(f"{t1:.6f}: {what}: {g * 1e3:.1f} ms to the next (guest frozen "
+                          f"{frozen * 1e3:.1f} ms of it), longer than can.rpdo_deadline "
+                          f"{deadline * 1e3:.0f} ms")
+
+    for t1, t2 in zip(sync_ts, sync_ts[1:]):
+        gap("SYNC", "SYNC", t1, t2)
+
+    last_rpdo = {}
+    since_sync = {cob: None for cob in by_cob}  # None: before the drive's first RPDO
+    missing = duplicated = 0
+    rpdos = 0
+    worst_nm = 0.0
+    enabled = {cob: False for cob in by_cob}
+    episodes = []  # [start, end]
+    syncs = 0
+    for ts, cob, data in allf:
+        if ts < first or ts > last:
+            continue
+        if cob == 0x080:
+            syncs += 1
+            for c, k in since_sync.items():
+                if k is None:
+                    continue
+                if k == 0:
+                    missing += 1
+                    if missing <= 5:
+                        errors.append(f"{ts:.6f}: SYNC {syncs} without an RPDO {c:03X} since the previous SYNC")
+                elif k > 1:
+                    duplicated += 1
+                    if duplicated <= 5:
+                        errors.append(f"{ts:.6f}: SYNC {syncs} after {k} RPDOs {c:03X}")
+                since_sync[c] = 0
+            continue
+        d = by_cob.get(cob)
+        if d is None:
+            continue
+        if len(data) != 4:
+            errors.append(f"{ts:.6f} {cob:03X}: RPDO with {len(data)} bytes (expected 4)")
+            continue
+        rpdos += 1
+        if cob in last_rpdo:
+            gap("RPDO", f"RPDO {cob:03X}", last_rpdo[cob], ts)
+        last_rpdo[cob] = ts
+        since_sync[cob] = (since_sync[cob] or 0) + 1
+        cw = int.from_bytes(data[0:2], "little")
+        tq = int.from_bytes(data[2:4], "little", signed=True)
+        nm = tq * d["rated"] / 1000.0
+        limit = min(safety_max, d["max"])
+        worst_nm = max(worst_nm, abs(nm))
+        if abs(nm) > limit + 0.5 * d["rated"] / 1000.0:
+            errors.append(f"{ts:.6f} {cob:03X}: target torque {nm:.3f} N m above the limit {limit} N m")
+        was = any(enabled.values())
+        enabled[cob] = (cw & 0x0F) == 0x0F
+        now = any(enabled.values())
+        if now and not was:
+            episodes.append([ts, ts])
+        if now:
+            episodes[-1][1] = ts
+    for c in by_cob:
+        if c not in last_rpdo:
+            errors.append(f"no RPDO {c:03X} while the service ran")
+    if missing > 5 or duplicated > 5:
+        errors.append(f"{missing} missing and {duplicated} duplicated RPDOs in all")
+    if a.expect_enables is not None and len(episodes) != a.expect_enables:
+        errors.append(f"{len(episodes)} enable episodes on the wire, expected {a.expect_enables}")
+    if gaps["SYNC"] > 10 or gaps["RPDO"] > 10:
+        errors.append(f"{gaps['SYNC']} SYNC gaps and {gaps['RPDO']} RPDO gaps above the deadline in all")
+    span = ", ".join(f"{s - first:.2f}-{e - first:.2f} s" for s, e in episodes)
+    print(f"check_serve_wire: {syncs} SYNCs over {last - first:.2f} s, {rpdos} RPDOs from "
+          f"{len(drives)} drives; longest gap SYNC {worst['SYNC'] * 1e3:.1f} ms, RPDO "
+          f"{worst['RPDO'] * 1e3:.1f} ms (deadline {deadline * 1e3:.0f} ms; above it: "
+          f"{gaps['SYNC']} SYNC + {gaps['RPDO']} RPDO gaps, {excused['SYNC']} + {excused['RPDO']} "
+          f"more excused by {len(stalls)} guest freezes of "
+          f"{sum(b - a for a, b in stalls) * 1e3:.0f} ms); max |target torque| {worst_nm:.2f} N m "
+          f"(limit {safety_max} N m); {len(episodes)} enable episodes ({span}): "
+          f"{'ok' if not errors else 'FAILED'}")
+    for e in errors[:40]:
+        print("  " + e)
+    return 1 if errors else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

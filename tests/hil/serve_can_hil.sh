@@ -1,0 +1,251 @@
+#!/usr/bin/env bash
+# HIL (issue 12, "How it is shown"): the service mode over real SocketCAN, with the SHIPPED
+# configuration unchanged (no widened deadline, no changed rate). Inside the user-mode-linux
+# guest (run_in_vcan.sh; LCM multicast stays on the guest's loopback): `dualv sim --can vcan0`
+# (the four emulated drives) + `dualv run --serve --can vcan0 --lcm URL`, `candump -l`
+# capturing vcan0 the whole time. In order:
+#   1. idle 5 s ("serving: waiting"): `dualv status` finds a robot state while idle
+#   2. a signed `dualv start paper`: "starting ...paper.yaml", then "paper.yaml done"
+#   3. idle ~1 s; a signed `dualv start stream` + `dualv stream --circle 0.01 --duration 2`
+#      (its signed stop at the end): "stream done"
+#   4. a signed start of paper and at once (no sleep) `dualv estop`: the program never starts
+#      ("refused" for that start, no "done"/"STOPPED" for it, no enable on the wire); then a
+#      signed reset
+#   5. a signed start of paper, ~1.5 s into it `dualv estop`: "paper.yaml STOPPED", and in
+#      faults.jsonl the e-stop with reaction SS1 and then "stop reached" STO
+#   6. a signed reset, a signed start of paper: it completes ("done" count 2)
+#   7. SIGINT: the service ends, exit 0
+# Then on the capture (check_serve_wire.py), from the service's first SYNC to its last: no SYNC
+# gap and no gap between one drive's RPDOs longer than can.rpdo_deadline, every drive's RPDO in
+# every cycle, no target torque above safety.torque.max, exactly 4 enable episodes (paper,
+# stream, the e-stopped paper, paper: none for the start of step 4).
+#
+# Timing in the guest: it is one slow virtual CPU that the host freezes as a whole under load
+# (tests/hil/README.md), so it cannot keep a 1 kHz loop's timing everywhere. What this test
+# does instead of widening the configuration:
+#   - a stall probe (SCHED_FIFO 99, above every process of the test) records the intervals in
+#     which the guest as a whole did not run; a wire gap above the deadline is excused only when
+#     it is within the deadline without those intervals (check_serve_wire.py --stalls). What
+#     does not depend on timing is asserted as it is: every drive's RPDO in every cycle, the
+#     torque limit, the enable episodes, the log and fault log of each step
+#   - a program stopped by a timing watchdog alone (deadline misses, stale feedback, drive lost,
+#     or a drive's RPDO deadline EMCY 8250h: what a guest freeze causes) is not a failure of
+#     what this test checks: the step is retried after a signed reset, at most twice, and the
+#     retries are reported
+#   - the emulator's free run (its plant advancing without SYNC after 50 ms: a dead master) is
+#     off (`--free-run-after 0`, an emulator option, not the configuration): a guest frozen as
+#     a whole is not a dead master (as paper_hil.sh)
+#   - the emulator runs SCHED_FIFO 90 above the control loop (80) and candump 95 with a large
+#     receive buffer, as in paper_hil.sh: drives answer each SYNC before the next cycle, and the
+#     capture loses nothing
+# Usage: serve_can_hil.sh DUALV_BINARY CONFIG_YAML [PROGRAM_YAML (default: paper.yaml beside it)]
+# KEEP=1 keeps the work folder (logs, capture) and prints its path.
+set -u
+. "$(dirname "$0")/hil_lib.sh"
+usage="usage: serve_can_hil.sh DUALV_BINARY CONFIG_YAML [PROGRAM_YAML]"
+dualv=${1:?$usage}
+config=${2:?$usage}
+program=${3:-$(dirname "$config")/paper.yaml}
+here=$(cd "$(dirname "$0")" && pwd)
+skip_outside_lcm_guest
+py=/usr/bin/python3
+[[ -x $py ]] || py=python3
+command -v candump >/dev/null || { echo "FAIL: candump not found (install can-utils)"; exit 1; }
+tmp=$(mktemp -d "${TMPDIR:-/tmp}/dualv-serve-can-hil.XXXXXX") || exit 1
+url='udpm://239.255.76.67:7667?ttl=0'
+key=$tmp/keys/lab1.key
+mkdir -p "$tmp/keys" "$tmp/dump"
+head -c 32 /dev/urandom >"$key"
+chmod 600 "$key"
+pname=$(basename "$program")
+
+run_pid='' sim_pid='' dump_pid='' probe_pid=''
+# shellcheck disable=SC2317  # invoked by the EXIT trap
+cleanup() {
+  for p in $run_pid $sim_pid $probe_pid $dump_pid; do kill "$p" 2>/dev/null; done
+  if [[ -n "${KEEP:-}" ]]; then echo "kept $tmp"; else rm -rf "$tmp"; fi
+}
+trap cleanup EXIT
+fail() {
+  echo "FAIL: $*"
+  for f in run.log sim.log status.log stream.log out/faults.jsonl; do
+    echo "--- $f"
+    tail -n 60 "$tmp/$f" 2>/dev/null
+  done
+  exit 1
+}
+# count PATTERN: lines of the service's log matching PATTERN (grep -E)
+count() { grep -cE -- "$1" "$tmp/run.log"; }
+# wait_count PATTERN N SECONDS: 0 once the service's log has N lines matching PATTERN
+wait_count() {
+  local n=$(($3 * 20))
+  for ((i = 0; i < n; ++i)); do
+    [[ $(count "$1") -ge $2 ]] && return 0
+    sleep 0.05
+  done
+  return 1
+}
+signed() { "$dualv" "$@" --key "$key" --lcm "$url" >>"$tmp/commands.log" 2>&1; }
+
+fifo() {  # fifo PRIO: a chrt prefix where permitted (root in the guest), else nothing
+  if [[ $(id -u) -eq 0 ]] && command -v chrt >/dev/null && chrt -f "$1" true 2>/dev/null; then
+    echo "chrt -f $1"
+  fi
+}
+
+# --- the guest stall probe: intervals (CLOCK_REALTIME, as candump's timestamps) in which a
+# SCHED_FIFO 99 thread sleeping 1 ms did not run for more than 3 ms: the guest was frozen.
+# shellcheck disable=SC2046
+$(fifo 99) "$py" -u -c '
+import sys, time
+out = open(sys.argv[1], "w", buffering=1)
+last = time.time()
+while True:
+    time.sleep(0.001)
+    now = time.time()
+    if now - last > 0.003:
+        out.write("%.6f %.6f\n" % (last, now))
+    last = now
+' "$tmp/stalls.txt" &
+probe_pid=$!
+
+# shellcheck disable=SC2046
+(cd "$tmp/dump" && exec $(fifo 95) candump -l -r 8388608 vcan0) >"$tmp/candump.log" 2>&1 &
+dump_pid=$!
+for ((i = 0; i < 100; ++i)); do
+  compgen -G "$tmp/dump/candump-*.log" >/dev/null && break
+  sleep 0.05
+done
+# shellcheck disable=SC2046
+$(fifo 90) "$dualv" sim --can vcan0 --config "$config" --status-every 0 --free-run-after 0 \
+  >"$tmp/sim.log" 2>&1 &
+sim_pid=$!
+wait_for "$tmp/sim.log" "drives booted" 20 || fail "dualv sim did not start"
+"$dualv" run --serve --can vcan0 --config "$config" --lcm "$url" --keys "$tmp/keys" \
+  -o "$tmp/out" >"$tmp/run.log" 2>&1 &
+run_pid=$!
+
+# Timing-watchdog stops (what a guest freeze causes), not what this test checks: see above.
+timing_only() {  # timing_only FIRST_LINE: 0 when every stopping fault from that line of
+  # faults.jsonl on is a timing watchdog's
+  local causes
+  causes=$(tail -n "+$1" "$tmp/out/faults.jsonl" 2>/dev/null | grep '"event":"fault"' |
+    grep -E '"reaction":"(SS1|STO)"' | sed -nE 's/.*"text":"([^"]*)".*/\1/p')
+  [[ -n "$causes" ]] || return 1
+  ! grep -vE '^(consecutive deadline misses|stale feedback|drive lost|drive fault drive [0-9]+: EMCY 8250h)' \
+    <<<"$causes" | grep -q .
+}
+faults_lines() { [[ -f "$tmp/out/faults.jsonl" ]] && wc -l <"$tmp/out/faults.jsonl" || echo 0; }
+retries=0
+# run_paper: a signed start of the program until it completes (timing-only stops retried)
+run_paper() {
+  local done0 stopped0 f0
+  for attempt in 1 2 3; do
+    done0=$(count "$pname done") stopped0=$(count "$pname STOPPED") f0=$(($(faults_lines) + 1))
+    signed start "$program"
+    wait_count "$pname (done|STOPPED)" $((done0 + stopped0 + 1)) 120 ||
+      fail "$1: the signed start of $pname did not end in 120 s"
+    [[ $(count "$pname done") -gt $done0 ]] && return 0
+    timing_only "$f0" || fail "$1: $pname STOPPED, not by a timing watchdog"
+    ((++retries))
+    echo "note: $1: $pname stopped by a timing watchdog in the guest (attempt $attempt): $(grep "$pname STOPPED" "$tmp/run.log" | tail -n 1)"
+    signed reset
+    wait_count "reset accepted" "$(($(count "reset accepted") + 1))" 20 || fail "$1: reset after a timing stop"
+  done
+  fail "$1: $pname did not complete in 3 attempts"
+}
+
+# 1. Boot, then idle 5 s: the robot state is published while idle.
+wait_for "$tmp/run.log" "serving: waiting" 60 || fail "no service (boot)"
+sleep 5
+kill -0 "$run_pid" 2>/dev/null || fail "the service ended while idle"
+"$dualv" status --lcm "$url" --timeout 10 >"$tmp/status.log" 2>&1 ||
+  fail "dualv status found no robot state while the service is idle"
+grep -q "plate X" "$tmp/status.log" || fail "dualv status printed no state"
+grep -q "STO\|refused\|STOPPED" "$tmp/run.log" && echo "note: while idle: $(grep "STO\|refused\|STOPPED" "$tmp/run.log" | head -n 3)"
+
+# 2. A signed start of the paper program: it starts and completes.
+run_paper "step 2"
+grep -qE "^dualv run: starting .*$pname \(key lab1\)" "$tmp/run.log" || fail "step 2: no 'starting ... $pname' line"
+
+# 3. Idle ~1 s, then a stream ended by its signed stop.
+sleep 1
+signed start stream
+wait_count "starting stream" 1 20 || fail "step 3: the signed 'start stream' did not start a stream"
+"$dualv" stream --key "$key" --lcm "$url" --no-start --circle 0.01 --duration 2 >"$tmp/stream.log" 2>&1 ||
+  fail "step 3: dualv stream failed"
+wait_count "stream (done|STOPPED)" 1 30 || fail "step 3: the stream did not end"
+[[ $(count "stream done") -eq 1 ]] || fail "step 3: the stream did not end normally"
+
+# 4. An e-stop while a start is being prepared: that program never starts.
+done4=$(count "$pname done") stopped4=$(count "$pname STOPPED") refused4=$(count "start of .* refused")
+resets4=$(count "reset \(key lab1\)")
+"$dualv" start "$program" --key "$key" --lcm "$url" >>"$tmp/commands.log" 2>&1
+"$dualv" estop --lcm "$url" >>"$tmp/commands.log" 2>&1
+wait_count "start of .* refused" $((refused4 + 1)) 20 || fail "step 4: the start during an e-stop was not refused"
+grep "start of .* refused" "$tmp/run.log" | tail -n 1 | sed 's/^/  step 4: /'
+sleep 2
+[[ $(count "$pname done") -eq $done4 && $(count "$pname STOPPED") -eq $stopped4 ]] ||
+  fail "step 4: the program started despite the e-stop"
+signed reset
+wait_count "reset \(key lab1\)" $((resets4 + 1)) 20 || fail "step 4: the signed reset was not accepted"
+
+# 5. An e-stop while the program runs: SS1, then STO.
+for attempt in 1 2 3; do
+  stopped5=$(count "$pname STOPPED") done5=$(count "$pname done") f5=$(($(faults_lines) + 1))
+  starts5=$(count "^dualv run: starting .*$pname")
+  signed start "$program"
+  wait_count "^dualv run: starting .*$pname" $((starts5 + 1)) 20 || fail "step 5: the program did not start"
+  sleep 1.5
+  "$dualv" estop --lcm "$url" >>"$tmp/commands.log" 2>&1
+  wait_count "$pname (done|STOPPED)" $((stopped5 + done5 + 1)) 60 || fail "step 5: no end after the e-stop"
+  [[ $(count "$pname done") -eq $done5 ]] || fail "step 5: the program completed despite the e-stop"
+  grep "$pname STOPPED" "$tmp/run.log" | tail -n 1 | sed 's/^/  step 5: /'
+  new=$(tail -n "+$f5" "$tmp/out/faults.jsonl" 2>/dev/null)
+  if grep '"event":"fault"' <<<"$new" | grep '"cause":"e-stop (LCM)"' | grep -q '"reaction":"SS1"'; then
+    break
+  fi
+  # stopped before the e-stop came: a timing watchdog (retried), or a failure
+  timing_only "$f5" || fail "step 5: no e-stop (LCM) with reaction SS1 in faults.jsonl"
+  ((++retries))
+  echo "note: step 5: stopped by a timing watchdog before the e-stop (attempt $attempt)"
+  signed reset
+  wait_count "reset accepted" "$(($(count "reset accepted") + 1))" 20 || fail "step 5: reset"
+  [[ $attempt -lt 3 ]] || fail "step 5: no run reached the e-stop in 3 attempts"
+done
+grep -A1000 '"cause":"e-stop (LCM)","reaction":"SS1"' <<<"$new" | grep '"event":"stop reached"' |
+  grep -q '"reaction":"STO"' || fail "step 5: no 'stop reached' STO after the e-stop's SS1 in faults.jsonl"
+
+# 6. A signed reset, then a start: it completes.
+resets=$(count "reset \(key lab1\)")
+signed reset
+wait_count "reset \(key lab1\)" $((resets + 1)) 20 || fail "step 6: the signed reset was not accepted"
+run_paper "step 6"
+
+# 7. SIGINT: the service ends cleanly.
+kill -INT "$run_pid"
+wait "$run_pid"
+rc=$?
+run_pid=
+[[ $rc -eq 0 ]] || fail "step 7: dualv run --serve exited $rc after SIGINT"
+grep -q "stop signal: ending the service" "$tmp/run.log" || fail "step 7: no 'ending the service'"
+kill -TERM "$sim_pid" 2>/dev/null
+wait "$sim_pid" 2>/dev/null
+sim_pid=
+sleep 0.2
+kill "$probe_pid" 2>/dev/null
+wait "$probe_pid" 2>/dev/null
+probe_pid=
+kill -INT "$dump_pid" 2>/dev/null
+wait "$dump_pid" 2>/dev/null
+dump_pid=
+grep -E "^dualv sim: (stopped|node)" "$tmp/sim.log"
+
+# The wire: gaps, every drive every cycle, torque limit, 4 enable episodes (+ the retries).
+capture=$(compgen -G "$tmp/dump/candump-*.log" | head -n 1)
+[[ -s "$capture" ]] || fail "no candump capture"
+"$py" "$here/check_serve_wire.py" --config "$config" --stalls "$tmp/stalls.txt" \
+  --expect-enables $((4 + retries)) "$capture" || fail "wire check"
+echo "PASS: serve over vcan with the shipped configuration: idle state published; paper done;" \
+  "stream done; e-stop during preparation refused; e-stop while running SS1 -> STO; reset;" \
+  "paper done; SIGINT exit 0; wire checked (timing-watchdog retries: $retries)"
