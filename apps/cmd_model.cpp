@@ -9,9 +9,9 @@
 
 #include "apps/commands.hpp"
 #include "apps/config_path.hpp"
+#include "control/config/model_config.hpp"
 #include "control/model/dynamics.hpp"
 #include "control/model/kinematics.hpp"
-#include "control/model/model_config.hpp"
 
 namespace dualv::apps {
 

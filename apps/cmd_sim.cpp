@@ -28,7 +28,7 @@
 
 #include "apps/commands.hpp"
 #include "apps/config_path.hpp"
-#include "control/model/model_config.hpp"
+#include "control/config/model_config.hpp"
 #include "drivers/can/socketcan_bus.hpp"
 #include "drivers/canopen_config.hpp"
 #include "sim/drive_emulator.hpp"

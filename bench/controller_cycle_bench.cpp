@@ -8,10 +8,10 @@
 #include <algorithm>
 #include <vector>
 
+#include "control/config/model_config.hpp"
 #include "control/controller/controller.hpp"
 #include "control/loop/control_cycle.hpp"
 #include "control/loop/periodic_executive.hpp"
-#include "control/model/model_config.hpp"
 #include "control/trajectory/limits.hpp"
 #include "control/trajectory/program.hpp"
 #include "sim/plant.hpp"

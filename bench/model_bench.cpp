@@ -2,10 +2,10 @@
 // projection (issue 2 target: < 2 us in all).
 #include <benchmark/benchmark.h>
 
+#include "control/config/model_config.hpp"
 #include "control/model/dynamics.hpp"
 #include "control/model/kinematics.hpp"
 #include "control/model/lane_dynamics.hpp"
-#include "control/model/model_config.hpp"
 
 namespace {
 

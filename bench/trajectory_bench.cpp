@@ -2,7 +2,7 @@
 // Cartesian + joint references (the paper's controller ran at 10 kHz).
 #include <benchmark/benchmark.h>
 
-#include "control/model/model_config.hpp"
+#include "control/config/model_config.hpp"
 #include "control/trajectory/sequencer.hpp"
 
 namespace {

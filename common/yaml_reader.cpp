@@ -3,11 +3,103 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
+#include <fstream>
+#include <new>
 
 namespace dualv {
 
 namespace {
+
+thread_local bool complete_file = false;
+
+// Bounds that keep a hostile file from costing more than a refusal.
+constexpr std::size_t kMaxFileBytes = 4u << 20;  // a configuration or program is a few kB
+constexpr std::size_t kMaxNodes = 200000;        // walked nodes (aliases re-visit theirs)
+
+std::string node_kind(const YAML::Node& n) {
+  switch (n.Type()) {
+    case YAML::NodeType::Scalar:
+      return "a single value";
+    case YAML::NodeType::Sequence:
+      return "a list";
+    case YAML::NodeType::Map:
+      return "a map";
+    default:
+      return "nothing";
+  }
+}
+
+// The first byte that cannot be in a YAML text file (YAML 1.2 section 5.1: printable
+// characters, tab, CR, LF), or npos.
+std::size_t first_binary_byte(const std::string& text) {
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if ((c < 0x20 && c != '\t' && c != '\n' && c != '\r') || c == 0x7f) return i;
+  }
+  return std::string::npos;
+}
+
+// Walks the parsed document: duplicate keys (yaml-cpp keeps both pairs, a lookup sees the
+// first) and keys or list items without a value. Stops after kMaxNodes.
+class DocumentCheck {
+ public:
+  DocumentCheck(const std::string& name, std::vector<std::string>& problems)
+      : name_(name), problems_(problems) {}
+
+  void walk(const YAML::Node& n, const std::string& path) {
+    if (++visited_ > kMaxNodes) {
+      if (visited_ == kMaxNodes + 1)
+        add(n.Mark(), path,
+            fmt::format("more than {} values (aliases?): not a configuration", kMaxNodes));
+      return;
+    }
+    if (n.IsMap()) {
+      std::vector<std::pair<std::string, int>> seen;
+      for (const auto& kv : n) {
+        const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : "<complex key>";
+        const std::string child = path.empty() ? key : path + "." + key;
+        const auto first =
+            std::find_if(seen.begin(), seen.end(), [&](const auto& s) { return s.first == key; });
+        if (first != seen.end()) {
+          add(kv.first.Mark(), child,
+              fmt::format("duplicate key (first at line {}; YAML allows a key once per map)",
+                          first->second));
+        } else {
+          seen.emplace_back(key, kv.first.Mark().line + 1);
+        }
+        if (!kv.first.IsScalar()) add(kv.first.Mark(), child, "a key must be a plain name");
+        check_value(kv.second, kv.first.Mark(), child);
+      }
+    } else if (n.IsSequence()) {
+      for (std::size_t i = 0; i < n.size(); ++i)
+        check_value(n[i], n.Mark(), fmt::format("{}[{}]", path, i));
+    }
+  }
+
+ private:
+  void check_value(const YAML::Node& v, const YAML::Mark& at, const std::string& path) {
+    if (v.IsNull()) {
+      add(v.Mark().is_null() ? at : v.Mark(), path,
+          "no value (empty or ~): give a value; defaults are in the shipped config/dualv.yaml");
+      return;
+    }
+    walk(v, path);
+  }
+  void add(const YAML::Mark& m, const std::string& path, const std::string& reason) {
+    if (m.is_null())
+      problems_.push_back(fmt::format("{}: {}: {}", name_, path, reason));
+    else
+      problems_.push_back(
+          fmt::format("{}:{}:{}: {}: {}", name_, m.line + 1, m.column + 1, path, reason));
+  }
+  const std::string& name_;
+  std::vector<std::string>& problems_;
+  std::size_t visited_ = 0;
+};
+
 std::string join_lines(const std::vector<std::string>& lines) {
   std::string out = "invalid configuration:";
   for (const auto& l : lines) out += "\n  " + l;
@@ -28,14 +120,69 @@ YamlReader::YamlReader(YAML::Node node, std::string path, std::vector<std::strin
     problem(fmt::format("{}: must be a map of keys", path_.empty() ? "<root>" : path_));
 }
 
-YAML::Node YamlReader::load_file(const std::string& file) {
+YAML::Node YamlReader::load_file(const std::string& file,
+                                 std::vector<std::string>* document_problems) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in)
+    throw ConfigError({fmt::format("{}: cannot open file ({})", file, std::strerror(errno))});
+  std::string text;
+  char buf[65536];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) {
+    text.append(buf, static_cast<std::size_t>(in.gcount()));
+    if (text.size() > kMaxFileBytes)
+      throw ConfigError(
+          {fmt::format("{}: not a YAML configuration: larger than {} bytes", file, kMaxFileBytes)});
+  }
+  if (in.bad()) throw ConfigError({fmt::format("{}: cannot read file", file)});
+  return load_text(text, file, document_problems);
+}
+
+YAML::Node YamlReader::load_text(const std::string& text, const std::string& name,
+                                 std::vector<std::string>* document_problems) {
+  if (text.size() > kMaxFileBytes)
+    throw ConfigError(
+        {fmt::format("{}: not a YAML configuration: larger than {} bytes", name, kMaxFileBytes)});
+  if (const std::size_t at = first_binary_byte(text); at != std::string::npos)
+    throw ConfigError({fmt::format(
+        "{}: not a YAML file: binary content (byte 0x{:02x} at offset {}); expected a text file",
+        name, static_cast<unsigned char>(text[at]), at)});
+  YAML::Node root;
   try {
-    return YAML::LoadFile(file);
-  } catch (const YAML::BadFile&) {
-    throw ConfigError({fmt::format("{}: cannot open file", file)});
+    root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
-    throw ConfigError({fmt::format("{}:{}:{}: YAML syntax error: {}", file, e.mark.line + 1,
-                                   e.mark.column + 1, e.msg)});
+    throw ConfigError({fmt::format("{}:{}:{}: YAML syntax error (not a valid YAML file): {}", name,
+                                   e.mark.line + 1, e.mark.column + 1, e.msg)});
+  } catch (const std::bad_alloc&) {
+    throw ConfigError({fmt::format("{}: not a YAML configuration: too large to parse", name)});
+  }
+  if (root.IsNull())
+    throw ConfigError({fmt::format(
+        "{}: empty file (only comments or nothing): expected a map of sections", name)});
+  if (!root.IsMap())
+    throw ConfigError({fmt::format(
+        "{}: not a YAML configuration: the top level is {}, expected a map of sections (key: ...)",
+        name, node_kind(root))});
+  std::vector<std::string> problems;
+  DocumentCheck(name, problems).walk(root, "");
+  if (document_problems != nullptr)
+    document_problems->insert(document_problems->end(), problems.begin(), problems.end());
+  else if (!problems.empty())
+    throw ConfigError(problems);
+  return root;
+}
+
+YamlReader::CompleteFile::CompleteFile() : previous_(complete_file) { complete_file = true; }
+YamlReader::CompleteFile::~CompleteFile() { complete_file = previous_; }
+
+void prefix_problems(const std::string& file, const std::function<void()>& load) {
+  try {
+    load();
+  } catch (const ConfigError& e) {
+    std::vector<std::string> named;
+    const std::string prefix = file + ":";
+    for (const auto& p : e.problems())
+      named.push_back(p.rfind(prefix, 0) == 0 ? p : fmt::format("{}: {}", file, p));
+    throw ConfigError(std::move(named));
   }
 }
 
@@ -51,8 +198,20 @@ bool YamlReader::has(const std::string& key) const {
 
 std::optional<YAML::Node> YamlReader::get(const std::string& key, bool required) {
   read_keys_.push_back(key);
+  if (node_.IsMap()) {
+    const YAML::Node& map = node_;
+    if (map[key].IsDefined() && map[key].IsNull()) {
+      problem(fmt::format("{}: no value (empty or ~): give a value", key_path(key)));
+      return std::nullopt;
+    }
+  }
   if (!has(key)) {
-    if (required) problem(fmt::format("{}: missing", key_path(key)));
+    if (complete_file && !required && valid())
+      problem(fmt::format(
+          "{}: missing (a complete configuration gives every key; see config/dualv.yaml)",
+          key_path(key)));
+    else if (required)
+      problem(fmt::format("{}: missing", key_path(key)));
     return std::nullopt;
   }
   const YAML::Node& map = node_;  // const lookup: never inserts the key

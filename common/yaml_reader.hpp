@@ -18,8 +18,33 @@ class YamlReader {
   // A map node at `path` (e.g. "model.plate"); `path` prefixes every message.
   YamlReader(YAML::Node node, std::string path, std::vector<std::string>* problems);
 
-  // Loads a file; a missing file or a YAML syntax error becomes a ConfigError.
-  static YAML::Node load_file(const std::string& file);
+  // Loads a file strictly (issue 14): a missing, empty, binary or non-YAML file, a YAML
+  // syntax error, a top level that is not a map, a duplicate key anywhere and a key without
+  // a value (`key: ~`, `key:`) each become a problem "<file>:<line>:<col>: <key path>:
+  // <reason>"; all of them are thrown at once as one ConfigError.
+  // With `document_problems`, the duplicate keys and empty values are appended there instead
+  // of thrown (a caller that goes on to report the file's other problems at once); a file
+  // that is not a YAML map still throws.
+  static YAML::Node load_file(const std::string& file,
+                              std::vector<std::string>* document_problems = nullptr);
+  // The same checks on text already in memory; `name` stands for the file in messages.
+  static YAML::Node load_text(const std::string& text, const std::string& name,
+                              std::vector<std::string>* document_problems = nullptr);
+
+  // While alive, every reader on this thread ignores its fallbacks: a key the code would
+  // default must be in the file ("missing (a complete configuration gives every key...)").
+  // A robot configuration is loaded under it, so defaults live in the shipped
+  // config/dualv.yaml and a truncated file is refused, not completed from code.
+  class CompleteFile {
+   public:
+    CompleteFile();
+    ~CompleteFile();
+    CompleteFile(const CompleteFile&) = delete;
+    CompleteFile& operator=(const CompleteFile&) = delete;
+
+   private:
+    bool previous_;
+  };
 
   const std::string& path() const noexcept { return path_; }
   bool has(const std::string& key) const;
@@ -67,5 +92,9 @@ class ConfigProblems {
  private:
   std::vector<std::string> problems_;
 };
+
+// Runs `load` and prefixes every problem of a ConfigError it throws with "<file>: ", so a
+// section loader's messages name the file they came from.
+void prefix_problems(const std::string& file, const std::function<void()>& load);
 
 }  // namespace dualv

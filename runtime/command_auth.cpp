@@ -15,6 +15,7 @@
 #include <stdexcept>
 
 #include "common/config_error.hpp"
+#include "runtime/replay_state.hpp"
 
 namespace dualv::runtime {
 
@@ -59,8 +60,8 @@ template <class Msg>
 bool decode_canonical(const void* data, std::size_t size, Msg& out, std::string& reason) {
   int used = -1;
   try {
-    // lcm-gen's decoder throws std::length_error on a zero or negative string
-    // length (it checks only the upper bound): that is a malformed message too.
+    // lcm-gen's decoders are post-processed to refuse a string length <= 0
+    // (lcm/harden_decoders.cmake); anything else they throw is a malformed message too.
     if (size <= 1'000'000) used = out.decode(data, 0, static_cast<int>(size));
   } catch (const std::exception&) {
     used = -1;
@@ -236,6 +237,41 @@ CommandVerifier::CommandVerifier(std::vector<CommandKey> keys, CommandAuthConfig
     for (std::size_t j = i + 1; j < keys_.size(); ++j)
       if (keys_[i].id == keys_[j].id)
         throw ConfigError({fmt::format("two command keys have the id '{}'", keys_[i].id)});
+  if (config_.replay_state_file.empty()) return;
+  LoadedReplayState st = load_replay_state(config_.replay_state_file);
+  if (st.status == ReplayStateStatus::kLoaded) {
+    last_sequence_ = std::move(st.marks.commands);
+    last_setpoint_sequence_ = std::move(st.marks.setpoints);
+    state_note_ = st.message;
+  } else {
+    floor_pending_ = true;
+    state_note_ = fmt::format(
+        "{}; signed messages sent up to {:.1f} s after the first one received are refused as "
+        "possible replays (state lost), and a new file is written on the next accepted one",
+        st.message, static_cast<double>(config_.max_future_us) * 1e-6);
+  }
+}
+
+void CommandVerifier::arm_floor(std::int64_t now_utime) {
+  if (!floor_pending_) return;
+  floor_pending_ = false;
+  floor_utime_ =
+      now_utime > INT64_MAX - config_.max_future_us ? INT64_MAX : now_utime + config_.max_future_us;
+}
+
+void CommandVerifier::persist(bool setpoint, std::int64_t now_utime, std::string& reason) {
+  if (config_.replay_state_file.empty()) return;
+  if (setpoint && last_setpoint_save_ != INT64_MIN && now_utime >= last_setpoint_save_ &&
+      now_utime - last_setpoint_save_ < 100'000)
+    return;
+  if (setpoint) last_setpoint_save_ = now_utime;
+  const std::string err =
+      save_replay_state(config_.replay_state_file, {last_sequence_, last_setpoint_sequence_});
+  if (!err.empty()) {
+    ++save_failures_;
+    last_save_error_ = err;
+    reason += fmt::format(" (replay state NOT saved: {})", err);
+  }
 }
 
 std::uint64_t CommandVerifier::refused() const noexcept {
@@ -290,6 +326,13 @@ CommandVerdict CommandVerifier::check_signed(const std::string& key_id, const st
         static_cast<double>(max_age_us) * 1e-6, static_cast<double>(config_.max_future_us) * 1e-6);
     return CommandVerdict::kStale;
   }
+  if (utime <= floor_utime_) {
+    reason = fmt::format(
+        "sent before {:.3f} s after the replay state was found lost: possibly a replay from "
+        "before the restart; send it again",
+        static_cast<double>(config_.max_future_us) * 1e-6);
+    return CommandVerdict::kReplayed;
+  }
   auto last = last_sequence.find(key_id);
   if (last != last_sequence.end() && sequence <= last->second) {
     reason = fmt::format("sequence {} not above {} for key '{}'", sequence, last->second, key_id);
@@ -322,9 +365,11 @@ SetpointVerifyResult CommandVerifier::verify_setpoint(const dualv_lcm::setpoint_
     r.verdict = CommandVerdict::kMalformed;
     r.reason = fmt::format("pose ({}, {}, {}) is not finite", sp.x, sp.y, sp.theta);
   } else {
+    arm_floor(now_utime);
     r.verdict =
         check_signed(sp.key_id, sp.hmac, signing_payload(sp), sp.utime, sp.sequence, now_utime,
                      config_.max_setpoint_age_us, last_setpoint_sequence_, "setpoint", r.reason);
+    if (r.verdict == CommandVerdict::kAccepted) persist(true, now_utime, r.reason);
   }
   ++setpoint_counts_[static_cast<int>(r.verdict)];
   return r;
@@ -355,9 +400,11 @@ VerifyResult CommandVerifier::verify(const dualv_lcm::command_t& cmd, std::int64
     return finish(std::move(r));
   }
 
+  arm_floor(now_utime);
   r.verdict =
       check_signed(cmd.key_id, cmd.hmac, signing_payload(cmd), cmd.utime, cmd.sequence, now_utime,
                    config_.max_age_us, last_sequence_, to_string(kind), r.reason);
+  if (r.verdict == CommandVerdict::kAccepted) persist(false, now_utime, r.reason);
   return finish(std::move(r));
 }
 

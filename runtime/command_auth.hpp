@@ -15,6 +15,7 @@
 // name without extension (/etc/dualv/keys/operator.key -> "operator").
 // Create one with: head -c 32 /dev/urandom > operator.key && chmod 600 operator.key
 #include <array>
+#include <climits>
 #include <cstdint>
 #include <map>
 #include <string>
@@ -82,6 +83,12 @@ struct CommandAuthConfig {
   // Setpoints: a stream is live data, so a tighter age window (a setpoint delayed this long
   // is no longer what the operator asks for; the stream watchdog is tighter still).
   std::int64_t max_setpoint_age_us = 500'000;
+  // Where the replay high-water marks persist (runtime/replay_state.hpp, docs/safety.md), so
+  // a signed message cannot be replayed after the service restarts. Empty: in memory only
+  // (tests, one-shot tools). A missing or corrupt file is safe: every signed message sent
+  // up to max_future_us after the first one received is refused (all a restart could
+  // replay), and state_note() says so.
+  std::string replay_state_file;
 };
 
 struct VerifyResult {
@@ -120,9 +127,20 @@ class CommandVerifier {
     return setpoint_counts_[static_cast<int>(v)];
   }
   std::size_t key_count() const noexcept { return keys_.size(); }
+  // What the replay state file held at construction (empty without one), for the log.
+  const std::string& state_note() const noexcept { return state_note_; }
+  // Accepted messages whose mark could not be saved (the last reason in last_save_error()).
+  std::uint64_t state_save_failures() const noexcept { return save_failures_; }
+  const std::string& last_save_error() const noexcept { return last_save_error_; }
 
  private:
   VerifyResult finish(VerifyResult r);
+  // Before the first check after a lost state: every message sent up to now + max_future_us
+  // could be a replay from before the restart.
+  void arm_floor(std::int64_t now_utime);
+  // Saves the marks after an accepted signed message (setpoints at most every 0.1 s);
+  // appends a failure to `reason`.
+  void persist(bool setpoint, std::int64_t now_utime, std::string& reason);
   // The checks every signed message shares, in this order: signed, known key, HMAC, age,
   // sequence above `last_sequence[key_id]` (advanced when accepted). `what` names the
   // message in the reason.
@@ -138,6 +156,12 @@ class CommandVerifier {
   std::map<std::string, std::int64_t> last_setpoint_sequence_;
   std::array<std::uint64_t, kVerdictCount> counts_{};
   std::array<std::uint64_t, kVerdictCount> setpoint_counts_{};
+  std::string state_note_;
+  bool floor_pending_ = false;
+  std::int64_t floor_utime_ = INT64_MIN;  // signed messages sent at or before it: replayed
+  std::int64_t last_setpoint_save_ = INT64_MIN;
+  std::uint64_t save_failures_ = 0;
+  std::string last_save_error_;
 };
 
 }  // namespace dualv::runtime

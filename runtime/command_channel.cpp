@@ -22,6 +22,7 @@ CommandChannel::CommandChannel(const std::string& url, CommandVerifier verifier,
     throw std::runtime_error(fmt::format(
         "cannot open LCM URL '{}' for commands: use a live URL such as {}", url, kLiveUrl));
   subscribe();
+  if (!verifier_.state_note().empty()) spdlog::info("command channel: {}", verifier_.state_note());
 }
 
 CommandChannel::CommandChannel(lcm::LCM& lcm, CommandVerifier verifier, WallClock clock)
@@ -29,6 +30,7 @@ CommandChannel::CommandChannel(lcm::LCM& lcm, CommandVerifier verifier, WallCloc
       verifier_(std::move(verifier)),
       clock_(clock ? std::move(clock) : WallClock(wall_utime)) {
   subscribe();
+  if (!verifier_.state_note().empty()) spdlog::info("command channel: {}", verifier_.state_note());
 }
 
 CommandChannel::~CommandChannel() {
@@ -66,6 +68,30 @@ void CommandChannel::start() {
 
 void CommandChannel::stop() {
   if (running_.exchange(false) && thread_.joinable()) thread_.join();
+  log_summaries(clock_(), true);
+}
+
+void CommandChannel::log_summaries(std::int64_t now_us, bool force) {
+  if (const auto n = refused_log_.take_summary(now_us, force)) {
+    std::string by;
+    for (int v = 1; v < kVerdictCount; ++v)
+      if (const auto c = verifier_.count(static_cast<CommandVerdict>(v)))
+        by += fmt::format("{}{} {}", by.empty() ? "" : ", ",
+                          to_string(static_cast<CommandVerdict>(v)), c);
+    spdlog::warn("command channel: {} more refused commands not logged ({} refused so far: {})", n,
+                 refused_.load(), by);
+  }
+  if (const auto n = accepted_log_.take_summary(now_us, force))
+    spdlog::info(
+        "command channel: {} more accepted commands not logged ({} accepted so far, {} "
+        "e-stops)",
+        n, accepted_.load(), estops_.load());
+  if (const auto n = queue_full_log_.take_summary(now_us, force))
+    spdlog::error("command channel: {} more commands dropped on a full queue ({} dropped so far)",
+                  n, queue_.dropped());
+  if (const auto n = setpoint_log_.take_summary(now_us, force))
+    spdlog::warn("command channel: {} more refused setpoints not logged ({} refused so far)", n,
+                 sp_refused_.load());
 }
 
 void CommandChannel::on_message(const lcm_recv_buf_t* rbuf, const char*, void* user) {
@@ -90,7 +116,9 @@ void CommandChannel::on_setpoint(const lcm_recv_buf_t* rbuf, const char*, void* 
 }
 
 void CommandChannel::handle_setpoint(const void* data, std::size_t size) {
-  SetpointVerifyResult r = verifier_.verify_setpoint_encoded(data, size, clock_());
+  const std::int64_t now = clock_();
+  log_summaries(now, false);
+  SetpointVerifyResult r = verifier_.verify_setpoint_encoded(data, size, now);
   if (r.verdict == CommandVerdict::kAccepted && setpoint_check_) {
     std::string why = setpoint_check_(r.setpoint.x, r.setpoint.y, r.setpoint.theta);
     if (!why.empty()) {
@@ -99,9 +127,9 @@ void CommandChannel::handle_setpoint(const void* data, std::size_t size) {
     }
   }
   if (r.verdict != CommandVerdict::kAccepted) {
-    // A bad stream repeats at its rate: the first ones, then one line per 100, not a flood.
+    // A bad stream repeats at its rate: the first ones, then a summary per second.
     const std::uint64_t n = sp_refused_.fetch_add(1) + 1;
-    if (n <= 10 || n % 100 == 0)
+    if (setpoint_log_.allow(now))
       spdlog::warn("setpoint refused ({}): {}; key '{}', sequence {} ({} refused so far)",
                    to_string(r.verdict), r.reason, r.setpoint.key_id, r.setpoint.sequence, n);
     return;
@@ -127,11 +155,15 @@ dualv_lcm::setpoint_t send_setpoint(lcm::LCM& lcm, double x, double y, double th
 }
 
 void CommandChannel::handle(const void* data, std::size_t size) {
-  const VerifyResult r = verifier_.verify_encoded(data, size, clock_());
+  const std::int64_t now = clock_();
+  log_summaries(now, false);
+  const VerifyResult r = verifier_.verify_encoded(data, size, now);
   if (r.verdict != CommandVerdict::kAccepted) {
     refused_.fetch_add(1);
-    spdlog::warn("command refused ({}): {}; kind {}, key '{}', sequence {}", to_string(r.verdict),
-                 r.reason, static_cast<int>(r.command.kind), r.command.key_id, r.command.sequence);
+    if (refused_log_.allow(now))
+      spdlog::warn("command refused ({}): {}; kind {}, key '{}', sequence {}", to_string(r.verdict),
+                   r.reason, static_cast<int>(r.command.kind), r.command.key_id,
+                   r.command.sequence);
     return;
   }
   accepted_.fetch_add(1);
@@ -143,8 +175,8 @@ void CommandChannel::handle(const void* data, std::size_t size) {
   copy_text(v.program, r.command.program);
   copy_text(v.key_id, r.command.key_id);
   if (v.kind == CommandKind::kEstop) estops_.fetch_add(1, std::memory_order_release);
-  spdlog::info("command accepted: {}", r.reason);
-  if (!queue_.try_push(v))
+  if (accepted_log_.allow(now)) spdlog::info("command accepted: {}", r.reason);
+  if (!queue_.try_push(v) && queue_full_log_.allow(now))
     spdlog::error("command queue full: {} dropped (the application is not reading commands)",
                   to_string(v.kind));
 }

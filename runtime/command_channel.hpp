@@ -3,7 +3,10 @@
 // setpoints on the setpoint channel, verifies them (command_auth.hpp) and hands
 // the accepted ones to the application through lock-free queues, so the
 // consumer may be the real-time loop itself. Refused commands and setpoints
-// are counted and logged (spdlog warning; setpoints rate-limited), never queued.
+// are counted and logged, never queued. Anything a peer can trigger at will (refused
+// commands, refused setpoints, accepted unsigned e-stops, a full queue) is logged through a
+// LogLimiter (log_limiter.hpp): the first kLogBurst in full, then one summary line per
+// second with the counts (issue 14: 2000 garbage messages are not 2000 log lines).
 //
 // E-stops are also counted in an atomic the consumer can poll: an e-stop is
 // never lost, even when the queue is full.
@@ -21,6 +24,7 @@
 
 #include "common/spsc_queue.hpp"
 #include "runtime/command_auth.hpp"
+#include "runtime/log_limiter.hpp"
 
 namespace lcm {
 class LCM;
@@ -48,7 +52,9 @@ struct VerifiedSetpoint {
 class CommandChannel {
  public:
   static constexpr std::size_t kQueue = 64;
-  using WallClock = std::function<std::int64_t()>;  // us since 1970
+  static constexpr std::uint64_t kLogBurst = 10;              // lines in full per kind ...
+  static constexpr std::int64_t kLogInterval_us = 1'000'000;  // ... then a summary per second
+  using WallClock = std::function<std::int64_t()>;            // us since 1970
   // The application's own check of a signed setpoint (workspace, kinematics): an empty
   // string accepts it, otherwise the reason it is refused. Runs on the receiving thread.
   using SetpointCheck = std::function<std::string(double x, double y, double theta)>;
@@ -107,6 +113,12 @@ class CommandChannel {
   std::atomic<std::uint64_t> estops_{0}, accepted_{0}, refused_{0};
   std::atomic<bool> running_{false};
   std::thread thread_;
+  // Touched only by the thread that polls (the LCM callbacks), and by stop() after it.
+  void log_summaries(std::int64_t now_us, bool force);
+  LogLimiter refused_log_{kLogBurst, kLogInterval_us};
+  LogLimiter accepted_log_{kLogBurst, kLogInterval_us};
+  LogLimiter queue_full_log_{kLogBurst, kLogInterval_us};
+  LogLimiter setpoint_log_{kLogBurst, kLogInterval_us};
 };
 
 // Sends one pose setpoint (signed when `key` is given) on the setpoint channel

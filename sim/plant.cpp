@@ -34,8 +34,9 @@ void read_mismatch(YamlReader& parent, const char* key, MismatchPercent& m) {
   m.mass = r.number("mass_percent", m.mass);
   m.inertia = r.number("inertia_percent", m.inertia);
   // A body may be lighter than configured, but it must keep a positive mass and inertia.
-  r.require(m.mass > -100.0, "mass_percent", "must be > -100", m.mass);
-  r.require(m.inertia > -100.0, "inertia_percent", "must be > -100", m.inertia);
+  r.require(m.mass > -100.0 && m.mass <= 1000.0, "mass_percent", "must be in (-100, 1000]", m.mass);
+  r.require(m.inertia > -100.0 && m.inertia <= 1000.0, "inertia_percent", "must be in (-100, 1000]",
+            m.inertia);
   r.reject_unknown_keys();
 }
 
@@ -71,9 +72,10 @@ PlantConfig load_plant_config(const YAML::Node& plant_node) {
   {
     YamlReader f = r.child("friction", false);
     c.friction.enabled = f.boolean("enabled", c.friction.enabled);
-    c.friction.coulomb = f.non_negative("coulomb", c.friction.coulomb);
-    c.friction.viscous = f.non_negative("viscous", c.friction.viscous);
-    c.friction.smoothing_velocity = f.positive("smoothing_velocity", c.friction.smoothing_velocity);
+    c.friction.coulomb = f.in_range("coulomb", 0.0, 100.0, c.friction.coulomb);
+    c.friction.viscous = f.in_range("viscous", 0.0, 100.0, c.friction.viscous);
+    c.friction.smoothing_velocity =
+        f.in_range("smoothing_velocity", 1e-6, 10.0, c.friction.smoothing_velocity);
     f.reject_unknown_keys();
   }
   {
@@ -89,7 +91,7 @@ PlantConfig load_plant_config(const YAML::Node& plant_node) {
     c.encoder.enabled = e.boolean("enabled", c.encoder.enabled);
     const int cpr =
         e.integer("counts_per_revolution", static_cast<int>(c.encoder.counts_per_revolution));
-    e.require(cpr > 0, "counts_per_revolution", "must be > 0", cpr);
+    e.require(cpr >= 4, "counts_per_revolution", "must be >= 4", cpr);
     c.encoder.counts_per_revolution = cpr;
     e.reject_unknown_keys();
   }
@@ -97,19 +99,20 @@ PlantConfig load_plant_config(const YAML::Node& plant_node) {
     YamlReader t = r.child("torque_quantisation", false);
     c.torque_quantisation.enabled = t.boolean("enabled", c.torque_quantisation.enabled);
     c.torque_quantisation.rated_torque =
-        t.positive("rated_torque", c.torque_quantisation.rated_torque);
+        t.in_range("rated_torque", 1e-3, 1000.0, c.torque_quantisation.rated_torque);
     t.reject_unknown_keys();
   }
   {
     YamlReader l = r.child("current_loop", false);
     c.current_loop.enabled = l.boolean("enabled", c.current_loop.enabled);
-    c.current_loop.time_constant = l.positive("time_constant", c.current_loop.time_constant);
+    c.current_loop.time_constant =
+        l.in_range("time_constant", 1e-7, 0.1, c.current_loop.time_constant);
     l.reject_unknown_keys();
   }
   {
     YamlReader s = r.child("saturation", false);
     c.saturation.enabled = s.boolean("enabled", c.saturation.enabled);
-    c.saturation.peak_torque = s.positive("peak_torque", c.saturation.peak_torque);
+    c.saturation.peak_torque = s.in_range("peak_torque", 1e-3, 1000.0, c.saturation.peak_torque);
     s.reject_unknown_keys();
   }
   {

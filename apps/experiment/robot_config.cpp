@@ -3,25 +3,80 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <functional>
+#include <optional>
 
 #include "common/config_error.hpp"
 #include "common/yaml_reader.hpp"
-#include "control/model/model_config.hpp"
+#include "control/config/model_config.hpp"
 
 namespace dualv::apps {
 
+namespace {
+
+const char* section_purpose(const std::string& name) {
+  if (name == "model") return "the mechanism: geometry, masses, chains";
+  if (name == "trajectory") return "pre-flight limits, rebase and streaming limits";
+  if (name == "plant") return "the simulated Dual-V's realism knobs";
+  if (name == "controller") return "gains kp, kd, feedforward, projection, velocity filter";
+  if (name == "loop") return "rate_hz: the control rate";
+  if (name == "can") return "the CANopen bus and drives";
+  if (name == "safety") return "torque, velocity and workspace limits, SS1, watchdogs";
+  return "";
+}
+
+}  // namespace
+
+std::vector<std::string> check_robot_config(const std::string& path) {
+  try {
+    load_robot_config(path);
+  } catch (const ConfigError& e) {
+    return e.problems();
+  }
+  return {};
+}
+
 RobotConfig load_robot_config(const std::string& path) {
-  const YAML::Node root = YamlReader::load_file(path);
+  // Duplicate keys and empty values are reported with the file's other problems, at once.
+  std::vector<std::string> document;
+  const YAML::Node root = YamlReader::load_file(path, &document);
   RobotConfig cfg;
   cfg.path = path;
-  std::vector<std::string> problems;
+  std::vector<std::string> problems = document;
+  for (const char* name : kRequiredSections)
+    if (!root[name].IsDefined())
+      problems.push_back(fmt::format("{}: {}: missing section ({}); config/dualv.yaml shows it",
+                                     path, name, section_purpose(name)));
+  for (const auto& kv : root) {
+    const std::string key = kv.first.as<std::string>();
+    if (std::find(kRequiredSections.begin(), kRequiredSections.end(), key) ==
+        kRequiredSections.end())
+      problems.push_back(
+          fmt::format("{}: {}: unknown section (known: model, trajectory, plant, "
+                      "controller, loop, can, safety)",
+                      path, key));
+  }
+  if (problems.size() > document.size()) throw ConfigError(problems);  // truncated or foreign
+  // Every key of these sections must be in the file: no fallback to compiled-in values.
+  std::optional<YamlReader::CompleteFile> complete;
+  complete.emplace();
   // Each section loader throws its own ConfigError; collect them all before giving up.
+  // An empty value the document check reported ("<file>:<l>:<c>: a.b: no value") is not
+  // reported again by the section loader ("a.b: no value").
+  auto already_reported = [&](const std::string& p) {
+    const auto colon = p.find(": no value");
+    if (colon == std::string::npos) return false;
+    const std::string key = ": " + p.substr(0, colon) + ": no value";
+    return std::any_of(document.begin(), document.end(),
+                       [&](const std::string& d) { return d.find(key) != std::string::npos; });
+  };
   auto section = [&](const std::function<void()>& load) {
     try {
       load();
     } catch (const ConfigError& e) {
-      for (const auto& p : e.problems()) problems.push_back(fmt::format("{}: {}", path, p));
+      for (const auto& p : e.problems())
+        if (!already_reported(p)) problems.push_back(fmt::format("{}: {}", path, p));
     }
   };
   section([&] { cfg.model = model::load_model(root["model"]); });
@@ -37,7 +92,9 @@ RobotConfig load_robot_config(const std::string& path) {
     p.finish();
   });
   section([&] { cfg.safety = safety::load_safety_config(root["safety"]); });
-  if (problems.empty()) {
+  complete.reset();  // `can:` keeps its loader's own rules (drivers/canopen_config.hpp)
+  section([&] { cfg.can = drivers::load_can_config(root["can"]); });
+  if (problems.size() == document.size()) {  // every section loaded: cross-check them
     // Programs that pass pre-flight must not trip the safety layer: its limits must be at
     // least as wide as the trajectory's.
     const auto& lim = cfg.trajectory.limits;
@@ -68,15 +125,33 @@ RobotConfig load_robot_config(const std::string& path) {
     };
     for (const auto& [what, bad] : checks)
       if (bad) problems.push_back(fmt::format("{}: {}", path, what));
-  }
-  const char* known[] = {"model",  "controller", "trajectory", "plant", "loop",
-                         "safety", "can",        "lcm",        "drives"};
-  for (const auto& kv : root) {
-    const std::string key = kv.first.as<std::string>();
-    if (std::find(std::begin(known), std::end(known), key) == std::end(known))
-      problems.push_back(fmt::format("{}: {}: unknown section", path, key));
+    // Rates: a filter above Nyquist aliases, a plant coarser than the loop cannot apply a
+    // command per cycle, and the bus must carry one SYNC per control cycle.
+    const double rate = cfg.rate_hz();
+    const double cutoff = cfg.control.estimator.velocity_cutoff_hz;
+    if (!(cutoff < 0.5 * rate))
+      problems.push_back(
+          fmt::format("{}: controller.velocity_cutoff_hz: must be below the loop's Nyquist rate "
+                      "loop.rate_hz / 2 = {} Hz (got {})",
+                      path, 0.5 * rate, cutoff));
+    const double plant_rate = 1.0 / cfg.plant.max_step;
+    if (plant_rate < rate * (1.0 - 1e-9))
+      problems.push_back(
+          fmt::format("{}: plant.integration_rate: must be >= loop.rate_hz = {} Hz (got {})", path,
+                      rate, plant_rate));
+    if (cfg.plant.saturation.peak_torque < s.torque.max)
+      problems.push_back(fmt::format(
+          "{}: safety.torque.max: must not exceed the drives' peak plant.saturation.peak_torque "
+          "= {} N m (got {})",
+          path, cfg.plant.saturation.peak_torque, s.torque.max));
+    const auto sync_ns = static_cast<double>(cfg.can.sync_period_ns);
+    if (std::abs(sync_ns - static_cast<double>(cfg.loop.period_ns)) > 0.5)
+      problems.push_back(
+          fmt::format("{}: can.sync.period: must equal 1 / loop.rate_hz = {} s (got {} s)", path,
+                      static_cast<double>(cfg.loop.period_ns) * 1e-9, sync_ns * 1e-9));
   }
   if (!problems.empty()) throw ConfigError(problems);
+  cfg.trajectory.limits.loop_period = cfg.period();  // pre-flight at the loop rate
   return cfg;
 }
 

@@ -20,6 +20,14 @@ const char* to_string(ControlStatus s) noexcept {
   return "unknown";
 }
 
+namespace {
+// Physical ranges of the gains: 1e6 N m/rad is 100x the stiff-mode stability bound of the
+// Dual-V at 1 kHz (config/dualv.yaml); beyond it a value is a unit mistake.
+constexpr double kMaxKp = 1e6;                  // [N m/rad]
+constexpr double kMaxKd = 1e4;                  // [N m s/rad]
+constexpr double kMaxVelocityCutoffHz = 10000;  // [Hz] half the fastest loop (20 kHz)
+}  // namespace
+
 ControlSetup load_control_config(const YAML::Node& node, int n) {
   ConfigProblems problems;
   YamlReader r(node, "controller", problems.sink());
@@ -28,7 +36,7 @@ ControlSetup load_control_config(const YAML::Node& node, int n) {
     problems.finish();
   }
   ControlSetup setup;
-  auto gain = [&](const std::string& key) {
+  auto gain = [&](const std::string& key, double max_gain) {
     model::JointVector g = model::JointVector::Zero(n);
     std::vector<double> v;
     if (r.has(key) && node[key].IsSequence()) {
@@ -40,16 +48,21 @@ ControlSetup load_control_config(const YAML::Node& node, int n) {
       v.assign(n, r.number(key));
     }
     for (int i = 0; i < n && i < static_cast<int>(v.size()); ++i) {
-      r.require(v[i] > 0.0, key, "must be > 0", v[i]);
+      r.require(v[i] > 0.0 && v[i] <= max_gain, key,
+                fmt::format("must be in (0, {}] (controller.hpp: physical gain ranges)", max_gain),
+                v[i]);
       g[i] = v[i];
     }
     return g;
   };
-  setup.controller.kp = gain("kp");
-  setup.controller.kd = gain("kd");
+  setup.controller.kp = gain("kp", kMaxKp);
+  setup.controller.kd = gain("kd", kMaxKd);
   setup.controller.feedforward = r.boolean("feedforward", true);
   setup.controller.projection = r.boolean("projection", true);
-  setup.estimator.velocity_cutoff_hz = r.positive("velocity_cutoff_hz", 200.0);
+  // Bounded here by a plausible filter; the loop's Nyquist rate bounds it again where the rate
+  // is known (apps/experiment/robot_config.cpp).
+  setup.estimator.velocity_cutoff_hz =
+      r.in_range("velocity_cutoff_hz", 0.1, kMaxVelocityCutoffHz, 200.0);
   r.reject_unknown_keys();
   problems.finish();
   return setup;

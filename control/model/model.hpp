@@ -1,7 +1,7 @@
 #pragma once
 // The planar n-RRR parallel mechanism (n >= 3 chains; the Dual-V has n = 4).
 //
-// Model: geometry and inertia, immutable after loading (control/model/model_config.hpp).
+// Model: geometry and inertia, immutable after loading (control/config/model_config.hpp).
 // Data:  every buffer the algorithms need, preallocated from a Model
 //        (Pinocchio's model/data split). Algorithms take (const Model&, Data&, ...),
 //        are noexcept, allocate nothing and return a status.

@@ -31,6 +31,10 @@ struct Limits {
   double max_plate_angular_acceleration = 1e9;  // |theta_dd| [rad/s^2]
   double max_joint_torque = 1e9;                // |tau_i| from the inverse dynamics [N m]
   double sample_period = 5e-4;                  // pre-flight sampling step [s]
+  // The control loop's period [s] (1 / loop.rate_hz, set by apps/experiment/robot_config.cpp;
+  // not a key of `trajectory:`): pre-flight also samples the program as the loop will and
+  // checks the joint speed between two cycles. 0: not checked.
+  double loop_period = 0.0;
 };
 
 // The move that joins the robot's actual pose to a program's first pose (program.hpp rebase()):

@@ -8,6 +8,7 @@
 #include "common/config_error.hpp"
 #include "control/model/dynamics.hpp"
 #include "control/model/kinematics.hpp"
+#include "control/trajectory/sample_count.hpp"
 
 namespace dualv::trajectory {
 
@@ -33,6 +34,8 @@ const char* to_string(LimitKind k) noexcept {
       return "plate angular acceleration";
     case LimitKind::kJointTorque:
       return "joint torque";
+    case LimitKind::kDuration:
+      return "segment duration";
   }
   return "?";
 }
@@ -59,6 +62,8 @@ const char* limit_key(LimitKind k) noexcept {
       return "trajectory.limits.max_plate_angular_acceleration";
     case LimitKind::kJointTorque:
       return "trajectory.limits.max_joint_torque";
+    case LimitKind::kDuration:
+      return "trajectory.limits.sample_period";
   }
   return "?";
 }
@@ -78,17 +83,62 @@ PreflightError::PreflightError(PreflightReport report)
 
 namespace {
 
+constexpr int kMaxIntervalsPerSegment = 100'000'000;
+
 class Checker {
  public:
   Checker(const model::Model& model, const Limits& limits, PreflightReport& report)
       : model_(model), data_(model), limits_(limits), report_(report) {}
 
+  // The program as the loop samples it, one pose per cycle: the joint speed between two
+  // consecutive cycles, |q_k - q_k-1| / loop_period. By the mean value theorem it never
+  // exceeds the analytic peak of a continuous motion, so it adds no false refusal; it catches
+  // what a cycle sees as a step (a move shorter than the period).
+  void check_loop_rate(const Program& program) {
+    const double dt = limits_.loop_period;
+    const auto cycles = sample_intervals(program.duration(), dt, 1, kMaxIntervalsPerSegment);
+    if (!cycles) return;  // check_segment() has refused the durations
+    std::vector<std::uint32_t> seen(program.size(), 0);
+    CartesianSample c;
+    PhaseSample ph;
+    model::JointVector q, q_prev;
+    for (int i = 0; i <= *cycles; ++i) {
+      const double t = dt * i;
+      const std::size_t k = program.sample(t, c, ph);
+      if (model::inverse_kinematics(model_, data_, c.X, q) != model::Status::kOk) {
+        q_prev.resize(0);  // check_segment() names the pose; restart the differences
+        continue;
+      }
+      if (q_prev.size() == q.size() && k < program.size()) {
+        int j = 0;
+        const double speed = (q - q_prev).cwiseAbs().maxCoeff(&j) / dt;
+        if (speed > limits_.max_joint_speed * (1.0 + 1e-9)) {
+          const Segment& s = program.segments()[k];
+          add({s, k, t, t - s.t_start}, seen[k], LimitKind::kJointSpeed, speed,
+              limits_.max_joint_speed, j,
+              fmt::format("at the loop rate ({:.6g} s per cycle) joint {} moves {:.4g} rad in one "
+                          "cycle: {:.4g} rad/s exceeds the limit {:.4g} rad/s",
+                          dt, j + 1, speed * dt, speed, limits_.max_joint_speed));
+        }
+      }
+      q_prev = q;
+    }
+  }
+
   void check_segment(const Program& program, std::size_t k) {
     const Segment& s = program.segments()[k];
     const double T = s.duration();
     const double period = limits_.sample_period > 0.0 ? limits_.sample_period : 5e-4;
-    const int n = std::max(1, static_cast<int>(std::ceil(T / period)));
     std::uint32_t seen = 0;
+    const auto intervals =
+        sample_intervals(T, period, kMinIntervalsPerSegment, kMaxIntervalsPerSegment);
+    if (!intervals) {
+      add({s, k, s.t_start, 0.0}, seen, LimitKind::kDuration, T, period, -1,
+          fmt::format("duration {} s cannot be sampled every {} s (at most {} samples)", T, period,
+                      kMaxIntervalsPerSegment));
+      return;
+    }
+    const int n = *intervals;
     CartesianSample c;
     PhaseSample ph;
     for (int i = 0; i <= n; ++i) {
@@ -118,7 +168,7 @@ class Checker {
     v.value = value;
     v.bound = bound;
     v.joint = joint;
-    v.message = fmt::format("{} at t = {:.4f} s (segment t = {:.4f} s): {} ({})", w.s.label, w.t,
+    v.message = fmt::format("{} at t = {:.6f} s (segment t = {:.6f} s): {} ({})", w.s.label, w.t,
                             w.tl, what, limit_key(kind));
     report_.violations.push_back(std::move(v));
   }
@@ -261,6 +311,7 @@ PreflightReport preflight(const model::Model& model, const Program& program, con
   PreflightReport report;
   Checker checker(model, limits, report);
   for (std::size_t k = 0; k < program.size(); ++k) checker.check_segment(program, k);
+  if (limits.loop_period > 0.0) checker.check_loop_rate(program);
   return report;
 }
 

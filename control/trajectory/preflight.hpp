@@ -1,9 +1,14 @@
 #pragma once
 // Pre-flight: before anything moves, the whole program is sampled densely (every
-// limits.sample_period, plus each segment's two ends evaluated inside that segment) and checked
+// limits.sample_period and at least kMinIntervalsPerSegment times per segment, so a segment
+// shorter than the step is still seen inside, plus each segment's two ends evaluated inside
+// that segment) and checked
 // against the model and the configured limits: workspace box, distance to parallel and serial
 // singularities, joint speed, plate (angular) acceleration and peak joint torque from the
-// inverse dynamics (eq. 1-3). Set-up code: allocates, may throw PreflightError.
+// inverse dynamics (eq. 1-3). With limits.loop_period set, the program is also sampled at the
+// loop rate, as the controller will see it, and the joint speed between two consecutive cycles
+// is checked (a move shorter than a cycle is a step there). Set-up code: allocates, may throw
+// PreflightError.
 //
 // It can also choose the smallest blend time tau (eq. 16) or the shortest duration T of a
 // shape segment that meets the limits, by bisection.
@@ -18,6 +23,8 @@
 
 namespace dualv::trajectory {
 
+inline constexpr int kMinIntervalsPerSegment = 16;
+
 enum class LimitKind : std::uint8_t {
   kKinematics,  // the model refused the pose (unreachable, singular): value/bound unused
   kWorkspaceX,
@@ -29,6 +36,7 @@ enum class LimitKind : std::uint8_t {
   kPlateAcceleration,
   kPlateAngularAcceleration,
   kJointTorque,
+  kDuration,  // a segment whose duration cannot be sampled (not finite, or too many samples)
 };
 const char* to_string(LimitKind k) noexcept;
 // Configuration key of the limit, e.g. "trajectory.limits.max_joint_speed".

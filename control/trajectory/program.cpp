@@ -8,6 +8,7 @@
 
 #include "common/config_error.hpp"
 #include "common/yaml_reader.hpp"
+#include "control/trajectory/sample_count.hpp"
 
 namespace dualv::trajectory {
 
@@ -23,7 +24,18 @@ double pose_distance(const Pose& a, const Pose& b) { return (a - b).cwiseAbs().m
 
 std::string validate_duration(double T) {
   if (!(std::isfinite(T) && T > 0.0)) return fmt::format("must be > 0 (got {})", T);
+  if (T > kMaxSegmentDuration)
+    return fmt::format("must be at most {} s (got {})", kMaxSegmentDuration, T);
   return {};
+}
+
+// A program that would grow past kMaxProgramDuration by `T` more seconds.
+void check_program_length(const Program& p, double T, const std::string& label) {
+  if (p.size() >= kMaxSegments)
+    throw ConfigError({fmt::format("{}: a program has at most {} segments", label, kMaxSegments)});
+  if (p.duration() + T > kMaxProgramDuration)
+    throw ConfigError({fmt::format("{}: the program would last {} s, more than {} s", label,
+                                   p.duration() + T, kMaxProgramDuration)});
 }
 
 }  // namespace
@@ -129,6 +141,7 @@ Program& Program::add_ptp(const Pose& to, double duration, std::string label) {
   if (label.empty()) label = fmt::format("segment {} (ptp)", segments_.size());
   if (auto e = validate_duration(duration); !e.empty())
     throw ConfigError({fmt::format("{}: duration {}", label, e)});
+  check_program_length(*this, duration, label);
   Segment s;
   s.kind = SegmentKind::kPtp;
   s.label = std::move(label);
@@ -141,6 +154,9 @@ Program& Program::add_ptp(const Pose& to, double duration, std::string label) {
 Program& Program::add_shape(const Shape& shape, const TimingLaw& timing, std::string label) {
   if (label.empty()) label = fmt::format("segment {} (shape)", segments_.size());
   if (auto e = timing.validate(); !e.empty()) throw ConfigError({label + ": " + e});
+  if (auto e = validate_duration(timing.T); !e.empty())
+    throw ConfigError({fmt::format("{}: T {}", label, e)});
+  check_program_length(*this, timing.T, label);
   const Pose start = shape.position(timing.lambda0);
   const Pose prev = end_pose();
   if (pose_distance(start, prev) > kJoinTolerance)
@@ -161,6 +177,7 @@ Program& Program::add_dwell(double duration, std::string label) {
   if (label.empty()) label = fmt::format("segment {} (dwell)", segments_.size());
   if (auto e = validate_duration(duration); !e.empty())
     throw ConfigError({fmt::format("{}: duration {}", label, e)});
+  check_program_length(*this, duration, label);
   Segment s;
   s.kind = SegmentKind::kDwell;
   s.label = std::move(label);
@@ -339,6 +356,8 @@ void read_shape(YamlReader& r, const YAML::Node& raw, RawSegment& seg, const Pro
 
   TimingLaw& law = seg.motion.timing;
   law.T = r.positive("T");
+  r.require(!(law.T > kMaxSegmentDuration), "T",
+            fmt::format("must be at most {} s (program.hpp)", kMaxSegmentDuration), law.T);
   const std::string timing = r.string("timing", "retimed");
   if (!parse_timing_kind(timing, law.kind))
     r.problem(fmt::format("{}: unknown timing law '{}' (expected original, retimed or smooth)",
@@ -366,6 +385,13 @@ void read_shape(YamlReader& r, const YAML::Node& raw, RawSegment& seg, const Pro
     r.require(law.lambda_f != law.lambda0, "lambda_f", "must differ from lambda0", law.lambda_f);
 }
 
+double read_duration(YamlReader& r) {
+  const double d = r.positive("duration");
+  r.require(!(d > kMaxSegmentDuration), "duration",
+            fmt::format("must be at most {} s (program.hpp)", kMaxSegmentDuration), d);
+  return d;
+}
+
 void read_segment(YamlReader& item, const YAML::Node& raw, RawSegment& seg,
                   const ProgramContext& ctx) {
   const bool p = item.has("ptp"), s = item.has("shape"), d = item.has("dwell");
@@ -387,7 +413,7 @@ void read_segment(YamlReader& item, const YAML::Node& raw, RawSegment& seg,
       seg.target = PtpTarget::kNextStart;
     }
     seg.from = read_pose(r, "from");
-    seg.duration = r.positive("duration");
+    seg.duration = read_duration(r);
     r.reject_unknown_keys();
   } else if (s) {
     seg.kind = SegmentKind::kShape;
@@ -397,7 +423,7 @@ void read_segment(YamlReader& item, const YAML::Node& raw, RawSegment& seg,
   } else {
     seg.kind = SegmentKind::kDwell;
     YamlReader r = item.child("dwell");
-    seg.duration = r.positive("duration");
+    seg.duration = read_duration(r);
     r.reject_unknown_keys();
   }
 }
@@ -405,7 +431,11 @@ void read_segment(YamlReader& item, const YAML::Node& raw, RawSegment& seg,
 // First sample of a segment outside the box, as a message naming the limit key.
 std::optional<std::string> workspace_exit(const Segment& s, const Workspace& ws, double period) {
   const double T = s.duration();
-  const int n = std::max(1, static_cast<int>(std::ceil(T / period)));
+  const auto intervals =
+      sample_intervals(T, period, 1, static_cast<int>(kMaxSegmentDuration / 1e-6));
+  if (!intervals)
+    return fmt::format("{}: duration {} s cannot be sampled every {} s", s.label, T, period);
+  const int n = *intervals;
   CartesianSample c;
   PhaseSample ph;
   for (int i = 0; i <= n; ++i) {
@@ -450,6 +480,11 @@ Program load_program(const YAML::Node& program_node_in, const ProgramContext& ct
   const YAML::Node raw_items = root.has("segments") ? program_node["segments"] : YAML::Node();
   if (root.valid() && raw_items.IsSequence() && items.empty())
     root.problem("program.segments: must not be empty");
+  if (items.size() > kMaxSegments) {
+    root.problem(
+        fmt::format("program.segments: at most {} segments (got {})", kMaxSegments, items.size()));
+    problems.finish();
+  }
   root.reject_unknown_keys();
 
   std::vector<RawSegment> raw(items.size());
@@ -514,6 +549,10 @@ Program load_program(const YAML::Node& program_node_in, const ProgramContext& ct
     program.retime();
     cur = program.end_pose();
   }
+  if (program.duration() > kMaxProgramDuration)
+    problems.sink()->push_back(
+        fmt::format("program.segments: the program lasts {} s, more than {} s (program.hpp)",
+                    program.duration(), kMaxProgramDuration));
   problems.finish();
 
   if (override_kind) program = with_timing(program, *override_kind);
@@ -528,8 +567,16 @@ Program load_program(const YAML::Node& program_node_in, const ProgramContext& ct
 }
 
 Program load_program_file(const std::string& path, const ProgramContext& context) {
-  const YAML::Node doc = YamlReader::load_file(path);
-  return load_program(doc["program"], context);
+  Program program;
+  prefix_problems(path, [&] {
+    const YAML::Node doc = YamlReader::load_file(path);
+    for (const auto& kv : doc)
+      if (kv.first.Scalar() != "program")
+        throw ConfigError({fmt::format("{}: unknown section (a program file holds `program:` only)",
+                                       kv.first.Scalar())});
+    program = load_program(doc["program"], context);
+  });
+  return program;
 }
 
 }  // namespace dualv::trajectory

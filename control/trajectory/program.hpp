@@ -33,6 +33,12 @@
 
 namespace dualv::trajectory {
 
+// Bounds on what a program may ask for (issue 14): beyond them a value is a mistake, and
+// within them every count derived from a program (samples, cycles, log rows) is small.
+inline constexpr double kMaxSegmentDuration = 600.0;   // [s] a ptp, dwell or shape T
+inline constexpr double kMaxProgramDuration = 3600.0;  // [s] the whole program
+inline constexpr std::size_t kMaxSegments = 10000;
+
 enum class SegmentKind : std::uint8_t { kPtp, kShape, kDwell };
 const char* to_string(SegmentKind kind) noexcept;
 
@@ -66,7 +72,8 @@ class Program {
   explicit Program(const Pose& start) : start_(start) {}
 
   // Builders (set-up). Each segment starts at the previous end (or the program start).
-  // Throw ConfigError on invalid durations / timing laws.
+  // Throw ConfigError on invalid durations (not in (0, kMaxSegmentDuration], or a program
+  // longer than kMaxProgramDuration) / timing laws.
   Program& add_ptp(const Pose& to, double duration, std::string label = {});
   Program& add_shape(const Shape& shape, const TimingLaw& timing, std::string label = {});
   Program& add_dwell(double duration, std::string label = {});

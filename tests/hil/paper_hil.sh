@@ -18,7 +18,8 @@
 # The user-mode-linux guest is a single, slow CPU with ms-scale stalls, so the test runs a
 # HIL overlay of the configuration (written below, the production file is not changed):
 #   - 250 Hz (can.sync.period 4 ms) instead of 1 kHz, with gains stable at that rate
-#     (kp 200, kd 8); the in-process reference uses the same overlay
+#     (kp 200, kd 8) and a velocity filter below its Nyquist rate (100 Hz < 125 Hz); the
+#     in-process reference uses the same overlay
 #   - the emulator runs SCHED_FIFO 90 above the control loop (SCHED_FIFO 80) and candump at
 #     95 with a large receive buffer: like drive hardware, the emulator answers every SYNC
 #     before the controller's next cycle, and no frame is lost from the capture
@@ -73,6 +74,7 @@ config=$tmp/dualv-hil.yaml
 sed -e 's/^  rate_hz: [0-9.]*.*$/  rate_hz: 250.0\n  priority: 80\n  lock_memory: false/' \
     -e 's/^    period: 0\.001 /    period: 0.004 /' \
     -e 's/^  kp: [0-9.]*/  kp: 200.0/' -e 's/^  kd: [0-9.]*/  kd: 8.0/' \
+    -e 's/^  velocity_cutoff_hz: [0-9.]*/  velocity_cutoff_hz: 100.0/' \
     -e 's/^    drive_timeout: [0-9.]*/    drive_timeout: 1.0/' \
     -e 's/^    master_timeout: [0-9.]*/    master_timeout: 1.0/' \
     -e 's/^  rpdo_deadline: [0-9.]*/  rpdo_deadline: 1.0/' \
@@ -80,6 +82,7 @@ sed -e 's/^  rate_hz: [0-9.]*.*$/  rate_hz: 250.0\n  priority: 80\n  lock_memory
     -e 's/max_consecutive_deadline_misses: [0-9]*/max_consecutive_deadline_misses: 1000/' \
     -e 's/stale_feedback_cycles: [0-9]*/stale_feedback_cycles: 25/' "$config_in" >"$config"
 for want in '^  rate_hz: 250\.0$' '^  priority: 80$' '^    period: 0\.004 ' '^  kp: 200\.0' \
+  '^  velocity_cutoff_hz: 100\.0' \
   '^  kd: 8\.0' '^    drive_timeout: 1\.0' '^    master_timeout: 1\.0' '^  rpdo_deadline: 1\.0' \
   '^  max_tracking_error: 0\.010' 'max_consecutive_deadline_misses: 1000' \
   'stale_feedback_cycles: 25'; do

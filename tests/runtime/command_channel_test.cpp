@@ -2,10 +2,15 @@
 
 #include <gtest/gtest.h>
 
+#include <spdlog/sinks/ostream_sink.h>
+#include <spdlog/spdlog.h>
 #include <chrono>
 #include <lcm/lcm-cpp.hpp>
+#include <memory>
+#include <sstream>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "runtime/channels.hpp"
 #include "runtime/telemetry_publisher.hpp"
@@ -112,6 +117,96 @@ TEST_F(CommandChannelTest, BackgroundThreadDeliversCommands) {
   ASSERT_TRUE(got);
   EXPECT_EQ(v.kind, CommandKind::kEstop);
   EXPECT_EQ(ch.estop_requests(), 1u);
+}
+
+// Captures every spdlog line while alive (the default logger's sinks swapped for one
+// ostream sink), so a test counts what the channel logs.
+class LogCapture {
+ public:
+  LogCapture() : sink_(std::make_shared<spdlog::sinks::ostream_sink_mt>(out_)) {
+    auto logger = std::make_shared<spdlog::logger>("capture", sink_);
+    logger->set_level(spdlog::level::trace);
+    logger->set_pattern("%l %v");
+    previous_ = spdlog::default_logger();
+    spdlog::set_default_logger(logger);
+  }
+  ~LogCapture() { spdlog::set_default_logger(previous_); }
+  std::vector<std::string> lines() const {
+    std::vector<std::string> out;
+    std::istringstream in(out_.str());
+    for (std::string l; std::getline(in, l);) out.push_back(l);
+    return out;
+  }
+
+ private:
+  std::ostringstream out_;
+  std::shared_ptr<spdlog::sinks::ostream_sink_mt> sink_;
+  std::shared_ptr<spdlog::logger> previous_;
+};
+
+// Issue 14, defect 6: 2000 garbage messages over 2 s of (test) clock: every one counted and
+// refused, the log bounded: the first kLogBurst lines in full, then at most one summary per
+// second (2 s: at most 3 summaries with the final one at stop()).
+TEST(CommandChannelLog, GarbageIsCountedAndItsLogRateLimited) {
+  LogCapture capture;
+  lcm::LCM lcm{"memq://"};
+  std::int64_t now = 1'750'000'000'000'000;
+  std::uint64_t malformed = 0;
+  {
+    CommandChannel ch(lcm, CommandVerifier({test_key()}), [&] { return now; });
+    for (int i = 0; i < 2000; ++i) {
+      const std::string garbage = "garbage " + std::to_string(i);
+      ASSERT_EQ(lcm.publish(kCommandChannel, garbage.data(), static_cast<unsigned>(garbage.size())),
+                0);
+      while (ch.poll(0) > 0) {
+      }
+      now += 1000;  // 1 ms per message
+    }
+    EXPECT_EQ(ch.refused(), 2000u);
+    EXPECT_EQ(ch.accepted(), 0u);
+    malformed = ch.verifier().count(CommandVerdict::kMalformed);
+    ch.stop();
+  }
+  EXPECT_EQ(malformed, 2000u);
+  const auto lines = capture.lines();
+  std::size_t full = 0, summaries = 0;
+  std::uint64_t summarised = 0;
+  for (const auto& l : lines) {
+    if (l.find("command refused (malformed)") != std::string::npos) ++full;
+    const auto at = l.find("more refused commands not logged");
+    if (at != std::string::npos) {
+      ++summaries;
+      summarised += std::stoull(l.substr(l.find("channel: ") + 9));
+      EXPECT_NE(l.find("malformed "), std::string::npos) << l;
+    }
+  }
+  EXPECT_EQ(full, CommandChannel::kLogBurst);
+  EXPECT_GE(summaries, 1u);
+  EXPECT_LE(summaries, 3u);
+  EXPECT_EQ(full + summarised, 2000u);  // every message either logged or in a summary count
+  EXPECT_LE(lines.size(), CommandChannel::kLogBurst + 3);
+}
+
+// 200 accepted unsigned e-stops with nobody reading the queue (64 deep): every one counts as an
+// e-stop request, the accepted and queue-full lines are bounded the same way.
+TEST(CommandChannelLog, EstopFloodOnAFullQueueIsCountedNotLoggedPerMessage) {
+  LogCapture capture;
+  lcm::LCM lcm{"memq://"};
+  std::int64_t now = 1'750'000'000'000'000;
+  {
+    CommandChannel ch(lcm, CommandVerifier({test_key()}), [&] { return now; });
+    for (int i = 0; i < 200; ++i) {
+      const auto e = make_command(CommandKind::kEstop, "", now, i, nullptr);
+      ASSERT_EQ(lcm.publish(kCommandChannel, &e), 0);
+      while (ch.poll(0) > 0) {
+      }
+      now += 1000;
+    }
+    EXPECT_EQ(ch.estop_requests(), 200u);
+    EXPECT_EQ(ch.accepted(), 200u);
+    EXPECT_EQ(ch.dropped(), 200u - CommandChannel::kQueue);
+  }
+  EXPECT_LE(capture.lines().size(), 2 * (CommandChannel::kLogBurst + 2));
 }
 
 }  // namespace

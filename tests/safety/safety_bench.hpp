@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "control/config/model_config.hpp"
 #include "control/model/kinematics.hpp"
-#include "control/model/model_config.hpp"
 #include "safety/safety_filter.hpp"
 
 namespace dualv::safety::test {

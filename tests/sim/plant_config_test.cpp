@@ -75,11 +75,11 @@ TEST(PlantConfig, UnknownTopLevelKeyIsAnError) {
 }
 TEST(PlantConfig, NegativeTimeConstantIsAnError) {
   expect_error("plant: {current_loop: {time_constant: -0.0002}}",
-               "plant.current_loop.time_constant", "must be > 0");
+               "plant.current_loop.time_constant", "must be in [1e-07, 0.1]");
 }
 TEST(PlantConfig, ZeroCountsIsAnError) {
   expect_error("plant: {encoder: {counts_per_revolution: 0}}",
-               "plant.encoder.counts_per_revolution", "must be > 0");
+               "plant.encoder.counts_per_revolution", "must be >= 4");
 }
 TEST(PlantConfig, NonIntegerCountsIsAnError) {
   expect_error("plant: {encoder: {counts_per_revolution: 1.5}}",
@@ -88,17 +88,27 @@ TEST(PlantConfig, NonIntegerCountsIsAnError) {
 TEST(PlantConfig, CoarseIntegrationRateIsAnError) {
   expect_error("plant: {integration_rate: 500}", "plant.integration_rate", "must be in");
 }
+// Issue 14: physically absurd values (unit mistakes) are refused with their range.
+TEST(PlantConfig, AbsurdValuesAreRefusedWithTheirRange) {
+  expect_error("plant: {saturation: {peak_torque: 127000}}", "plant.saturation.peak_torque",
+               "must be in [0.001, 1000]");
+  expect_error("plant: {current_loop: {time_constant: 2}}", "plant.current_loop.time_constant",
+               "must be in [1e-07, 0.1]");
+}
+
 TEST(PlantConfig, NegativeFrictionIsAnError) {
-  expect_error("plant: {friction: {coulomb: -0.1}}", "plant.friction.coulomb", "must be >= 0");
-  expect_error("plant: {friction: {viscous: -0.1}}", "plant.friction.viscous", "must be >= 0");
+  expect_error("plant: {friction: {coulomb: -0.1}}", "plant.friction.coulomb",
+               "must be in [0, 100]");
+  expect_error("plant: {friction: {viscous: -0.1}}", "plant.friction.viscous",
+               "must be in [0, 100]");
 }
 TEST(PlantConfig, ZeroSmoothingVelocityIsAnError) {
   expect_error("plant: {friction: {smoothing_velocity: 0}}", "plant.friction.smoothing_velocity",
-               "must be > 0");
+               "must be in [1e-06, 10]");
 }
 TEST(PlantConfig, MismatchOfMinus100PercentIsAnError) {
   expect_error("plant: {mismatch: {plate: {mass_percent: -100}}}",
-               "plant.mismatch.plate.mass_percent", "must be > -100");
+               "plant.mismatch.plate.mass_percent", "must be in (-100, 1000]");
 }
 TEST(PlantConfig, UnknownBodyClassKeyIsAnError) {
   expect_error("plant: {mismatch: {crank: {length_percent: 3}}}",
@@ -106,11 +116,11 @@ TEST(PlantConfig, UnknownBodyClassKeyIsAnError) {
 }
 TEST(PlantConfig, NonPositiveRatedTorqueIsAnError) {
   expect_error("plant: {torque_quantisation: {rated_torque: 0}}",
-               "plant.torque_quantisation.rated_torque", "must be > 0");
+               "plant.torque_quantisation.rated_torque", "must be in [0.001, 1000]");
 }
 TEST(PlantConfig, NonPositivePeakTorqueIsAnError) {
   expect_error("plant: {saturation: {peak_torque: -127}}", "plant.saturation.peak_torque",
-               "must be > 0");
+               "must be in [0.001, 1000]");
 }
 TEST(PlantConfig, DelayCyclesOutOfRangeIsAnError) {
   expect_error("plant: {transport_delay: {cycles: 0}}", "plant.transport_delay.cycles",

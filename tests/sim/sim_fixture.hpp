@@ -2,7 +2,7 @@
 // The Dual-V model and plant configuration from the shipped file, for sim tests.
 #include <string>
 
-#include "control/model/model_config.hpp"
+#include "control/config/model_config.hpp"
 #include "sim/plant.hpp"
 
 namespace dualv::sim::test {

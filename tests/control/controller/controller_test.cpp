@@ -6,9 +6,9 @@
 #include <random>
 
 #include "common/config_error.hpp"
+#include "control/config/model_config.hpp"
 #include "control/model/dynamics.hpp"
 #include "control/model/kinematics.hpp"
-#include "control/model/model_config.hpp"
 
 namespace dualv::control {
 namespace {
@@ -146,14 +146,20 @@ TEST(ControllerConfig, GainsPerJointOrScalarAndErrorsNamed) {
     }
     return "";
   };
-  EXPECT_NE(error("{kp: -1, kd: 1}").find("controller.kp: must be > 0 (got -1)"),
+  EXPECT_NE(error("{kp: -1, kd: 1}").find("controller.kp: must be in (0, 1000000]"),
+            std::string::npos);
+  // Issue 14: a physically absurd gain or filter (a unit mistake) is refused with its range.
+  EXPECT_NE(error("{kp: 7e9, kd: 1}").find("controller.kp: must be in (0, 1000000]"),
+            std::string::npos);
+  EXPECT_NE(error("{kp: 1, kd: 1, velocity_cutoff_hz: 1e12}")
+                .find("controller.velocity_cutoff_hz: must be in [0.1, 10000]"),
             std::string::npos);
   EXPECT_NE(error("{kp: [1, 2], kd: 1}").find("controller.kp: must be one number or a list of 4"),
             std::string::npos);
   EXPECT_NE(error("{kd: 1}").find("controller.kp: missing"), std::string::npos);
   EXPECT_NE(error("{kp: 1, kd: 1, gain: 3}").find("controller.gain: unknown key"),
             std::string::npos);
-  EXPECT_NE(error("{kp: 1, kd: 1, velocity_cutoff_hz: 0}").find("velocity_cutoff_hz: must be > 0"),
+  EXPECT_NE(error("{kp: 1, kd: 1, velocity_cutoff_hz: 0}").find("velocity_cutoff_hz: must be in"),
             std::string::npos);
   EXPECT_NE(error("{kp: 1, kd: 1, projection: maybe}")
                 .find("controller.projection: must be true or false"),

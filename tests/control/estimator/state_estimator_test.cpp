@@ -4,8 +4,8 @@
 
 #include <cmath>
 
+#include "control/config/model_config.hpp"
 #include "control/model/kinematics.hpp"
-#include "control/model/model_config.hpp"
 
 namespace dualv::control {
 namespace {

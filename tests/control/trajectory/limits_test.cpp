@@ -66,7 +66,15 @@ TEST(Limits, RefusesMissingKey) {
 
 TEST(Limits, RefusesNonPositiveLimit) {
   expect_error(kGood, "max_joint_torque: 40", "max_joint_torque: -40",
-               "trajectory.limits.max_joint_torque: must be > 0 (got -40)");
+               "trajectory.limits.max_joint_torque: must be in [0.001, 127] (got -40)");
+}
+
+// Issue 14: a limit above the hardware (the drives' 127 N m peak) or a unit mistake.
+TEST(Limits, RefusesLimitsAboveTheHardware) {
+  expect_error(kGood, "max_joint_torque: 40", "max_joint_torque: 400",
+               "trajectory.limits.max_joint_torque: must be in [0.001, 127] (got 400)");
+  expect_error(kGood, "max_joint_speed: 10", "max_joint_speed: 1e6",
+               "trajectory.limits.max_joint_speed: must be in");
 }
 
 TEST(Limits, StreamingSectionIsOptionalAndChecked) {

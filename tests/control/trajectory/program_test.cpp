@@ -4,9 +4,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <initializer_list>
+#include <limits>
 #include <numbers>
 #include <random>
+#include <string>
 
 #include "common/config_error.hpp"
 #include "test_util.hpp"
@@ -671,6 +674,63 @@ TEST(ProgramRandom, NoNanAndC2JoinsOverManyRandomPrograms) {
     p.sample(p.duration(), c, ph);
     EXPECT_LT(max_diff(c.X, kHome), 1e-12);
     EXPECT_LT(c.X_dot.norm() + c.X_dd.norm(), 1e-9);
+  }
+}
+
+// Issue 14, defects 2 and 3: a huge duration is refused with its key (it used to overflow an
+// int in the workspace check, and to reach a vector::reserve of the run's rows).
+TEST(Program, HugeOrNonFiniteDurationsAreRefusedWithTheKey) {
+  ProgramContext ctx = home_context();
+  ctx.workspace = Workspace{{-1, 1}, {-1, 1}, {-1, 1}};
+  for (const char* d : {"1e300", "1e12", "601"}) {
+    try {
+      load_yaml(std::string("program:\n  segments:\n    - dwell: {duration: ") + d + "}\n", ctx);
+      ADD_FAILURE() << d << " accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(
+          std::string(e.what()).find("program.segments[0].dwell.duration: must be at most 600"),
+          std::string::npos)
+          << e.what();
+    }
+  }
+  for (const char* d : {".nan", ".inf", "-.inf"}) {
+    EXPECT_THROW(load_yaml(std::string("program:\n  segments:\n    - shape: {type: circle, T: ") +
+                               d + ", timing: original}\n",
+                           ctx),
+                 ConfigError)
+        << d;
+  }
+  EXPECT_THROW(Program(kHome).add_dwell(1e300), ConfigError);
+  EXPECT_THROW(Program(kHome).add_ptp(kHome, std::numeric_limits<double>::infinity()), ConfigError);
+  // Many segments each within bounds, together over an hour: refused too.
+  std::string many = "program:\n  segments:\n";
+  for (int i = 0; i < 7; ++i) many += "    - dwell: {duration: 600}\n";
+  try {
+    load_yaml(many, ctx);
+    ADD_FAILURE() << "a 4200 s program was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("more than 3600 s"), std::string::npos) << e.what();
+  }
+}
+
+// Issue 14, defect 2: a program file's refusals name the file.
+TEST(Program, FileProblemsNameTheFile) {
+  const std::string path = ::testing::TempDir() + "/dualv_program_test_bad.yaml";
+  {
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    ASSERT_NE(f, nullptr);
+    std::fputs(
+        "program:\n  segments:\n    - dwell: {duration: -1}\n    - dwell: {duration: 1, duration: "
+        "2}\n",
+        f);
+    std::fclose(f);
+  }
+  try {
+    load_program_file(path, home_context());
+    ADD_FAILURE() << "accepted";
+  } catch (const ConfigError& e) {
+    for (const auto& p : e.problems()) EXPECT_EQ(p.rfind(path, 0), 0u) << p;
+    EXPECT_NE(std::string(e.what()).find("duplicate key"), std::string::npos) << e.what();
   }
 }
 

@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "control/model/model_config.hpp"
+#include "control/config/model_config.hpp"
 #include "control/trajectory/limits.hpp"
 #include "control/trajectory/program.hpp"
 

@@ -1,4 +1,4 @@
-#include "control/model/model_config.hpp"
+#include "control/config/model_config.hpp"
 
 #include <fmt/format.h>
 
@@ -8,6 +8,12 @@
 namespace dualv::model {
 
 namespace {
+
+// Physical ranges (model_config.hpp): catch unit mistakes (mm for m, g for kg).
+constexpr double kMaxLength = 5.0;     // [m]
+constexpr double kMaxMass = 1000.0;    // [kg]
+constexpr double kMaxInertia = 100.0;  // [kg m^2]
+constexpr double kMaxGravity = 20.0;   // [m/s^2]
 
 Vec2 read_vec2(YamlReader& r, const std::string& key, std::optional<Vec2> fallback = {}) {
   std::optional<std::vector<double>> fb;
@@ -28,15 +34,18 @@ struct LinkParams {
 
 // Reads a link block; `defaults` (from model.crank / model.coupler) fill keys a
 // chain does not override.
+// A chain's override block gives only the keys it changes: those are read when present
+// (never through a fallback, so a complete-file load does not ask for every key there).
 LinkParams read_link(YamlReader r, const LinkParams* defaults) {
-  LinkParams p;
-  auto fb = [&](double v) { return defaults ? std::optional<double>(v) : std::nullopt; };
-  p.length = r.positive("length", fb(defaults ? defaults->length : 0));
-  p.body.mass = r.non_negative("mass", fb(defaults ? defaults->body.mass : 0));
-  p.body.inertia = r.non_negative("inertia", fb(defaults ? defaults->body.inertia : 0));
-  p.body.com = read_vec2(
-      r, "com",
-      defaults ? std::optional<Vec2>(defaults->body.com) : std::optional<Vec2>(Vec2::Zero()));
+  LinkParams p = defaults ? *defaults : LinkParams{};
+  auto given = [&](const char* key) { return !defaults || r.has(key); };
+  if (given("length")) p.length = r.in_range("length", 1e-3, kMaxLength);
+  if (given("mass")) p.body.mass = r.in_range("mass", 0.0, kMaxMass);
+  if (given("inertia")) p.body.inertia = r.in_range("inertia", 0.0, kMaxInertia);
+  if (!defaults)
+    p.body.com = read_vec2(r, "com", Vec2::Zero());
+  else if (r.has("com"))
+    p.body.com = read_vec2(r, "com");
   r.reject_unknown_keys();
   return p;
 }
@@ -52,6 +61,8 @@ Model load_model(const YAML::Node& model_node) {
   }
   Model m;
   m.gravity = read_vec2(r, "gravity", Vec2::Zero());
+  r.require(m.gravity.norm() <= kMaxGravity, "gravity",
+            fmt::format("must have a norm <= {} m/s^2", kMaxGravity), m.gravity.norm());
   {
     const auto home = r.numbers("home");
     if (home.size() == 3)
@@ -60,13 +71,13 @@ Model load_model(const YAML::Node& model_node) {
       r.problem(fmt::format("model.home: must be a list of 3 numbers [x, y, theta] (got {})",
                             home.size()));
   }
-  m.characteristic_length = r.positive("characteristic_length", 0.11);
+  m.characteristic_length = r.in_range("characteristic_length", 1e-3, kMaxLength, 0.11);
   const LinkParams crank = read_link(r.child("crank"), nullptr);
   const LinkParams coupler = read_link(r.child("coupler"), nullptr);
   {
     YamlReader plate = r.child("plate");
-    m.plate.mass = plate.non_negative("mass");
-    m.plate.inertia = plate.non_negative("inertia");
+    m.plate.mass = plate.in_range("mass", 0.0, kMaxMass);
+    m.plate.inertia = plate.in_range("inertia", 0.0, kMaxInertia);
     m.plate.com = read_vec2(plate, "com", Vec2::Zero());
     plate.reject_unknown_keys();
   }

@@ -1,6 +1,8 @@
 #pragma once
 // Loading a Model from YAML (set-up code: throws dualv::ConfigError listing every problem
-// with its key; never returns a partial model).
+// with its key; never returns a partial model). Lives above control/model, which reads no
+// YAML (issue 13). Physical ranges: lengths in (0, 5] m, masses in [0, 1000] kg, inertias in
+// [0, 100] kg m^2, |gravity| <= 20 m/s^2.
 #include <yaml-cpp/yaml.h>
 
 #include <string>

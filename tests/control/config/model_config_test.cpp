@@ -1,4 +1,4 @@
-#include "control/model/model_config.hpp"
+#include "control/config/model_config.hpp"
 
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
@@ -40,17 +40,20 @@ TEST(ModelConfig, ShippedConfigurationLoadsWithTableIValues) {
 
 TEST(ModelConfig, NegativeLengthIsNamed) {
   const auto e = error_after([](YAML::Node& n) { n["crank"]["length"] = -0.28; });
-  EXPECT_NE(e.find("model.crank.length: must be > 0 (got -0.28)"), std::string::npos) << e;
+  EXPECT_NE(e.find("model.crank.length: must be in [0.001, 5] (got -0.28)"), std::string::npos)
+      << e;
 }
 
 TEST(ModelConfig, NegativeMassIsNamed) {
   const auto e = error_after([](YAML::Node& n) { n["plate"]["mass"] = -1; });
-  EXPECT_NE(e.find("model.plate.mass: must be >= 0"), std::string::npos) << e;
+  EXPECT_NE(e.find("model.plate.mass: must be in [0, 1000] (got -1)"), std::string::npos) << e;
 }
 
 TEST(ModelConfig, PerChainOverrideIsChecked) {
   const auto e = error_after([](YAML::Node& n) { n["chains"][2]["coupler"]["length"] = 0.0; });
-  EXPECT_NE(e.find("model.chains[2].coupler.length: must be > 0"), std::string::npos) << e;
+  EXPECT_NE(e.find("model.chains[2].coupler.length: must be in [0.001, 5] (got 0)"),
+            std::string::npos)
+      << e;
 }
 
 TEST(ModelConfig, TooFewChains) {
