@@ -11,6 +11,30 @@
 
 namespace dualv::identification {
 
+namespace {
+
+// Standard parameters in the order they should represent base parameters: the inertias the
+// motors and the plate feel first (crank ZZ about the motor axis, the plate's), then the
+// couplers' rotary inertia and off-axis moment, then friction, and last what only ever acts
+// through those (a coupler's mass and first moment along its axis, the cranks' masses).
+std::vector<int> preferred_order(const ParameterLayout& L) {
+  std::vector<int> order;
+  using P = BodyParameter;
+  for (int i = 0; i < L.n; ++i) order.push_back(L.crank(i, P::kZZ));
+  for (P p : {P::kM, P::kMX, P::kMY, P::kZZ}) order.push_back(L.plate(p));
+  for (int i = 0; i < L.n; ++i) order.push_back(L.coupler(i, P::kZZ));
+  for (int i = 0; i < L.n; ++i) order.push_back(L.coupler(i, P::kMY));
+  for (int i = 0; i < L.n; ++i) order.push_back(L.viscous(i));
+  for (int i = 0; i < L.n; ++i) order.push_back(L.coulomb(i));
+  for (int i = 0; i < L.n; ++i)
+    for (P p : {P::kMX, P::kM}) order.push_back(L.coupler(i, p));
+  for (int i = 0; i < L.n; ++i)
+    for (P p : {P::kMX, P::kMY, P::kM}) order.push_back(L.crank(i, p));
+  return order;
+}
+
+}  // namespace
+
 Eigen::VectorXd BaseParameters::from_standard(const Eigen::VectorXd& phi) const {
   Eigen::VectorXd b(size()), p2(dependent.size());
   for (int j = 0; j < size(); ++j) b[j] = phi[independent[j]];
@@ -95,21 +119,47 @@ BaseParameters find_base_parameters(const model::Model& model, const BaseParamet
   for (std::size_t k = 0; k < acting.size(); ++k)
     Wn.col(static_cast<Eigen::Index>(k)) = W.col(acting[k]) / norms[acting[k]];
 
+  // The rank: QR with column pivoting (Eigen's rank-revealing Householder QR).
   Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(Wn);
   qr.setThreshold(o.rank_tolerance);
-  const Eigen::MatrixXd R = qr.matrixR().triangularView<Eigen::Upper>();
-  int r = 0;
-  while (r < R.cols() && std::abs(R(r, r)) > o.rank_tolerance * std::abs(R(0, 0))) ++r;
-  const auto perm = qr.colsPermutation().indices();
+  const int r = static_cast<int>(qr.rank());
 
+  // Which r columns: pivoting would pick whichever is largest, so the base parameters would be
+  // hard to read (e.g. a coupler's mass standing for the crank inertia it adds to). Instead the
+  // columns are taken in an order of preference (preferred_order), each kept when its part
+  // orthogonal to the columns kept before it is not negligible: the same R diagonal test, with
+  // the order fixed. It must find the rank the pivoting found.
+  std::vector<int> acting_index(static_cast<std::size_t>(P), -1);
+  for (std::size_t k = 0; k < acting.size(); ++k) acting_index[acting[k]] = static_cast<int>(k);
+  Eigen::MatrixXd Q(Wn.rows(), r);
   BaseParameters b;
   b.layout = L;
   std::vector<int> dep_acting;
-  for (int k = 0; k < r; ++k) b.independent.push_back(acting[perm[k]]);
-  for (Eigen::Index k = r; k < R.cols(); ++k) dep_acting.push_back(acting[perm[k]]);
-  // beta_n = R11^-1 R12 in scaled columns; back to units: beta = D1^-1 beta_n D2.
-  const Eigen::MatrixXd beta_n =
-      R.topLeftCorner(r, r).triangularView<Eigen::Upper>().solve(R.topRightCorner(r, R.cols() - r));
+  for (int k : preferred_order(L)) {
+    const int a = acting_index[k];
+    if (a < 0) continue;
+    Eigen::VectorXd c = Wn.col(a);
+    const int kept = static_cast<int>(b.independent.size());
+    for (int pass = 0; pass < 2; ++pass)  // Gram-Schmidt twice: orthogonal to rounding
+      c -= Q.leftCols(kept) * (Q.leftCols(kept).transpose() * c);
+    if (c.norm() > std::sqrt(o.rank_tolerance) && kept < r) {
+      Q.col(kept) = c.normalized();
+      b.independent.push_back(k);
+    } else {
+      dep_acting.push_back(k);
+    }
+  }
+  if (b.size() != r)
+    throw std::logic_error(fmt::format(
+        "base parameters: {} columns kept in order of preference, rank {} by pivoted QR", b.size(),
+        r));
+  // beta: W_2 = W_1 beta exactly (least squares on the full-rank W_1, in scaled columns),
+  // then back to units: beta = D1^-1 beta_n D2.
+  Eigen::MatrixXd W1n(Wn.rows(), r), W2n(Wn.rows(), static_cast<Eigen::Index>(dep_acting.size()));
+  for (int j = 0; j < r; ++j) W1n.col(j) = Wn.col(acting_index[b.independent[j]]);
+  for (std::size_t k = 0; k < dep_acting.size(); ++k)
+    W2n.col(static_cast<Eigen::Index>(k)) = Wn.col(acting_index[dep_acting[k]]);
+  const Eigen::MatrixXd beta_n = W1n.colPivHouseholderQr().solve(W2n);
   b.dependent = dep_acting;
   b.dependent.insert(b.dependent.end(), inert.begin(), inert.end());
   b.beta = Eigen::MatrixXd::Zero(r, static_cast<Eigen::Index>(b.dependent.size()));
@@ -117,12 +167,11 @@ BaseParameters find_base_parameters(const model::Model& model, const BaseParamet
     for (std::size_t k = 0; k < dep_acting.size(); ++k) {
       double c =
           beta_n(j, static_cast<Eigen::Index>(k)) * norms[dep_acting[k]] / norms[b.independent[j]];
-      // The combinations are geometric constants (l1^2, anchor coordinates...); what QR leaves
-      // of an exact zero is rounding.
+      // The combinations are geometric constants (l1^2, anchor coordinates...); what the
+      // solve leaves of an exact zero is rounding.
       if (std::abs(c) < 1e-9) c = 0.0;
       b.beta(j, static_cast<Eigen::Index>(k)) = c;
     }
   return b;
 }
-
 }  // namespace dualv::identification
