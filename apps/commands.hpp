@@ -21,5 +21,6 @@ void register_stream_command(CLI::App& app);
 void register_check_target_command(CLI::App& app);
 void register_sim_command(CLI::App& app);
 void register_selftest_command(CLI::App& app);
+void register_identify_command(CLI::App& app);
 
 }  // namespace dualv::apps
