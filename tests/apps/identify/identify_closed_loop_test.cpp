@@ -11,6 +11,7 @@
 #include "control/identification/excitation.hpp"
 #include "control/identification/identify.hpp"
 #include "control/identification/parameters.hpp"
+#include "control/trajectory/program.hpp"
 
 namespace dualv::apps {
 namespace {
@@ -89,6 +90,49 @@ TEST(IdentifyClosedLoop, WithoutNoiseTheBaseParametersAreThePlantsWithin2Percent
   EXPECT_GE(significant, 6);  // the four crank inertias and the plate's mass and inertia at least
   // The identified values differ from the configuration's: the mismatch was found, not assumed.
   EXPECT_GT((o.id.nominal - o.truth).cwiseAbs().maxCoeff(), 0.05);
+}
+
+RunResult paper_run(const RobotConfig& cfg) {
+  trajectory::ProgramContext ctx;
+  ctx.start = ctx.home = cfg.model.home;
+  const trajectory::Program program =
+      trajectory::load_program_file(std::string(DUALV_SOURCE_DIR) + "/config/paper.yaml", ctx);
+  Variant v;
+  v.name = "paper";
+  return run_in_process(cfg, program, v);
+}
+
+TEST(IdentifyClosedLoop, RefusesARecordingTooShortNamingTheTimeNeeded) {
+  const RobotConfig cfg = load_robot_config(std::string(DUALV_SOURCE_DIR) + "/config/dualv.yaml");
+  Recording rec = recording_from_run(paper_run(cfg), cfg.period());
+  rec.t.resize(400);  // 0.4 s
+  rec.X.resize(400);
+  rec.tau.resize(400);
+  try {
+    identify(cfg.model, standard_parameters(cfg.model, {}), rec, IdentifyOptions{});
+    FAIL() << "a 0.4 s recording was accepted";
+  } catch (const IdentificationError& e) {
+    EXPECT_NE(std::string(e.what()).find("not enough motion"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("need at least"), std::string::npos) << e.what();
+  }
+}
+
+TEST(IdentifyClosedLoop, RefusesThePaperProgramAsNotExcitingWithItsConditionNumber) {
+  // The paper's shapes keep the plate's angle constant and barely move some joints: the
+  // regressor is ill conditioned, and the refusal says so with the number.
+  const RobotConfig cfg = load_robot_config(std::string(DUALV_SOURCE_DIR) + "/config/dualv.yaml");
+  const Recording rec = recording_from_run(paper_run(cfg), cfg.period());
+  IdentifyOptions o;
+  o.torque_delay = drive_latency(cfg);
+  try {
+    identify(cfg.model, standard_parameters(cfg.model, {}), rec, o);
+    FAIL() << "the paper program was accepted as an excitation";
+  } catch (const IdentificationError& e) {
+    const std::string what = e.what();
+    EXPECT_TRUE(what.find("condition number") != std::string::npos ||
+                what.find("not enough motion") != std::string::npos)
+        << what;
+  }
 }
 
 }  // namespace
