@@ -35,8 +35,8 @@ struct Recording {
 
 struct IdentifyOptions {
   int filter_order = 4;
-  double cutoff_hz = 100.0;       // low-pass of poses and torques
-  int decimation = 2;             // keep every k-th filtered sample (Nyquist 250 Hz at 1 kHz)
+  double cutoff_hz = 50.0;        // low-pass of poses and torques
+  int decimation = 4;             // keep every k-th filtered sample (Nyquist 125 Hz at 1 kHz)
   double torque_delay = 0.0;      // [s] the torque sent at t acts at t + torque_delay
   double min_joint_speed = 0.05;  // [rad/s] samples with a slower joint are dropped
   double trim = 0.05;             // [s] dropped at each end (filter edges)
