@@ -8,6 +8,8 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -16,7 +18,9 @@
 #include "apps/commands.hpp"
 #include "apps/config_path.hpp"
 #include "apps/experiment/closed_loop.hpp"
+#include "apps/experiment/report.hpp"
 #include "apps/experiment/robot_config.hpp"
+#include "apps/identify/identify_config.hpp"
 #include "apps/identify/recording_io.hpp"
 #include "common/yaml_reader.hpp"
 #include "control/identification/excitation.hpp"
@@ -34,6 +38,7 @@ struct IdentifyArgs {
   std::string log;
   std::string out;
   std::string validation_program;
+  std::string identify_config;
   double cutoff_hz = 0.0;
   int decimation = 0;
   double torque_delay = -1.0;
@@ -138,12 +143,35 @@ std::string tracking_comparison(const RobotConfig& nominal_cfg, const model::Mod
   return s;
 }
 
+// scripts/plot_identification.py on `dir` with Debian's python (DUALV_PYTHON overrides): "" on
+// success, else why there is no PNG.
+std::string plot_validation(const std::string& dir) {
+  const std::string script = scripts_dir() + "/plot_identification.py";
+  if (!std::filesystem::exists(script)) return fmt::format("plot script {} not found", script);
+  const char* py = std::getenv("DUALV_PYTHON");
+  const std::string cmd =
+      fmt::format("'{}' '{}' '{}' 2>&1", py ? py : "/usr/bin/python3", script, dir);
+  std::FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return "cannot start python";
+  std::string output;
+  char buf[256];
+  while (std::fgets(buf, sizeof buf, p)) output += buf;
+  return pclose(p) == 0 ? "" : "plot script failed: " + output;
+}
+
 int run_identify(const IdentifyArgs& args) {
   const std::string config_path = resolve_config(args.config);
   const RobotConfig cfg = load_robot_config(config_path);
   const BaseParameters base = find_base_parameters(cfg.model);
-  IdentifyOptions options;
-  options.torque_delay = args.torque_delay >= 0.0 ? args.torque_delay : drive_latency(cfg);
+  const std::string identify_path =
+      args.identify_config.empty()
+          ? (std::filesystem::path(config_path).parent_path() / "identify.yaml").string()
+          : args.identify_config;
+  const IdentifyConfig icfg = load_identify_config(identify_path, args.identify_config.empty());
+  IdentifyOptions options = icfg.estimation;
+  options.torque_delay = args.torque_delay >= 0.0 ? args.torque_delay
+                         : icfg.torque_delay      ? *icfg.torque_delay
+                                                  : drive_latency(cfg);
   if (args.cutoff_hz > 0.0) options.cutoff_hz = args.cutoff_hz;
   if (args.decimation > 0) options.decimation = args.decimation;
   // The nominal friction: the plant section's (the model itself has no friction).
@@ -154,7 +182,8 @@ int run_identify(const IdentifyArgs& args) {
     fmt::print("identify: {} samples at {:.0f} Hz from {}\n", rec.size(), 1.0 / rec.period,
                args.log);
   } else {
-    const Excitation ex = design_excitation(cfg.model, base, cfg.trajectory.limits, {});
+    const Excitation ex =
+        design_excitation(cfg.model, base, cfg.trajectory.limits, icfg.excitation);
     fmt::print(
         "identify: excitation {:.1f} s (Fourier series, {} base parameters), regressor condition "
         "number {:.1f}; running it on the in-process simulation\n",
@@ -208,13 +237,28 @@ int run_identify(const IdentifyArgs& args) {
         "machine):\n{}",
         comparison);
     std::ofstream(dir + "/tracking.txt") << comparison;
+    if (const std::string why = plot_validation(dir); !why.empty())
+      fmt::print("identify: no validation.png: {}\n", why);
     fmt::print(
         "validation ({}): RMS torque {:.3f} N m; prediction error RMS {:.4f} N m with the "
         "identified model, {:.4f} N m with the nominal one\n",
         program_file, c.rms_measured, c.rms_error, cn.rms_error);
   }
+  if (!args.log.empty()) {
+    // No second run to validate on: the prediction along the log itself.
+    const TorqueComparison c = compare_torques(cfg.model, id.base, id.estimate.phi, rec, options);
+    const TorqueComparison cn = compare_torques(cfg.model, id.base, id.nominal, rec, options);
+    write_torques(dir + "/validation_torques.csv", c);
+    fmt::print(
+        "prediction along the log (the identification data): RMS torque {:.3f} N m; error RMS "
+        "{:.4f} N m with the identified model, {:.4f} N m with the nominal one\n",
+        c.rms_measured, c.rms_error, cn.rms_error);
+    if (const std::string why = plot_validation(dir); !why.empty())
+      fmt::print("identify: no validation.png: {}\n", why);
+  }
   fmt::print("identify: wrote {}/report.txt, identified.yaml (use with -c){}\n", dir,
-             args.log.empty() ? ", validation_torques.csv" : "");
+             args.log.empty() ? ", validation_torques.csv, validation.png, tracking.txt"
+                              : ", validation_torques.csv, validation.png");
   return 0;
 }
 
@@ -231,6 +275,8 @@ void register_identify_command(CLI::App& app) {
   cmd->add_option("--out", args->out, "Output folder (default out/identify-<date>-<time>)");
   cmd->add_option("--validate", args->validation_program,
                   "Program for the validation run (default: paper.yaml beside the config)");
+  cmd->add_option("--identify-config", args->identify_config,
+                  "Excitation and estimation settings (default: identify.yaml beside the config)");
   cmd->add_option("--cutoff", args->cutoff_hz, "Zero-phase low-pass cutoff [Hz] (default 50)");
   cmd->add_option("--decimation", args->decimation, "Keep every k-th filtered sample (default 4)");
   cmd->add_option("--torque-delay", args->torque_delay,

@@ -109,7 +109,7 @@ Identification identify(const model::Model& model, const Eigen::VectorXd& nomina
         "not enough motion to identify {} base parameters: {:.2f} s of samples with every joint "
         "faster than {} rad/s ({} samples after decimation by {}), need at least {:.2f} s and {} "
         "samples; record a longer run that keeps every joint moving (the excitation of "
-        "`dualv identify`, or lower identify.min_joint_speed)",
+        "`dualv identify`, or lower identify.estimation.min_joint_speed)",
         r, id.duration, o.min_joint_speed, obs.samples(), o.decimation, o.min_duration, 3 * r));
   id.estimate = weighted_least_squares(obs);
   if (!(id.estimate.condition <= o.max_condition)) {
@@ -125,7 +125,8 @@ Identification identify(const model::Model& model, const Eigen::VectorXd& nomina
       weak += (k ? ", " : "") + id.base.meaning(idx[static_cast<std::size_t>(k)]);
     throw IdentificationError(fmt::format(
         "the motion is not exciting enough: condition number {:.3g} of the scaled regressor "
-        "(limit identify.max_condition = {:.3g}); least excited: {}. Use a richer motion: the "
+        "(limit identify.estimation.max_condition = {:.3g}); least excited: {}. Use a richer "
+        "motion: the "
         "excitation of `dualv identify` (more harmonics, larger amplitudes in "
         "config/identify.yaml), with rotation of the plate and every joint reversing",
         id.estimate.condition, o.max_condition, weak));
