@@ -22,5 +22,6 @@ void register_check_target_command(CLI::App& app);
 void register_sim_command(CLI::App& app);
 void register_selftest_command(CLI::App& app);
 void register_config_command(CLI::App& app);
+void register_identify_command(CLI::App& app);
 
 }  // namespace dualv::apps

@@ -135,6 +135,7 @@ PlantConfig load_plant_config_file(const std::string& path) {
 }
 
 model::Model make_true_model(const model::Model& configured, const PlantConfig& config) noexcept {
+  if (config.true_model) return *config.true_model;
   model::Model m = configured;
   if (!config.mismatch.enabled) return m;
   for (int i = 0; i < m.n; ++i) {

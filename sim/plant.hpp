@@ -96,6 +96,11 @@ struct PlantConfig {
     int cycles = 1;  // a command given at cycle k is applied from cycle k + cycles
   } transport_delay;
 
+  // Not a YAML key: the plant's bodies given outright (e.g. the robot a model was identified on,
+  // so that a controller with the identified model meets the same machine: `dualv identify`).
+  // When set, `mismatch` is not applied; the geometry must be the configured model's.
+  std::optional<model::Model> true_model;
+
   // Not a YAML key: false keeps the dynamics on the baseline x86-64 (SSE2) code path even on
   // a CPU with AVX2 (model::LaneDynamics), so benchmarks can show what a target PC without
   // AVX2 gets.
@@ -110,7 +115,8 @@ struct PlantConfig {
 PlantConfig load_plant_config(const YAML::Node& plant_node);
 PlantConfig load_plant_config_file(const std::string& path);
 
-// The plant's "true" model: the configured one with the mismatch percentages applied.
+// The plant's "true" model: config.true_model when set, else the configured one with the
+// mismatch percentages applied.
 model::Model make_true_model(const model::Model& configured, const PlantConfig& config) noexcept;
 
 enum class PlantStatus : std::uint8_t {

@@ -29,7 +29,8 @@
 #     does not depend on timing is asserted as it is: every drive's RPDO in every cycle, the
 #     torque limit, the enable episodes, the log and fault log of each step
 #   - a program stopped by a timing watchdog alone (deadline misses, stale feedback, drive lost,
-#     or a drive's RPDO deadline EMCY 8250h: what a guest freeze causes) is not a failure of
+#     or a drive's RPDO deadline or heartbeat EMCY 8250h / 8130h: what a guest
+#     freeze causes) is not a failure of
 #     what this test checks: the step is retried after a signed reset, at most twice, and the
 #     retries are reported
 #   - the emulator's free run (its plant advancing without SYNC after 50 ms: a dead master) is
@@ -94,16 +95,16 @@ fifo() {  # fifo PRIO: a chrt prefix where permitted (root in the guest), else n
 }
 
 # --- the guest stall probe: intervals (CLOCK_REALTIME, as candump's timestamps) in which a
-# SCHED_FIFO 99 thread sleeping 1 ms did not run for more than 3 ms: the guest was frozen.
+# SCHED_FIFO 99 thread sleeping 2 ms did not run for more than 4 ms: the guest was frozen.
 # shellcheck disable=SC2046
 $(fifo 99) "$py" -u -c '
 import sys, time
 out = open(sys.argv[1], "w", buffering=1)
 last = time.time()
 while True:
-    time.sleep(0.001)
+    time.sleep(0.002)
     now = time.time()
-    if now - last > 0.003:
+    if now - last > 0.004:
         out.write("%.6f %.6f\n" % (last, now))
     last = now
 ' "$tmp/stalls.txt" &
@@ -132,19 +133,26 @@ timing_only() {  # timing_only FIRST_LINE: 0 when every stopping fault from that
   causes=$(tail -n "+$1" "$tmp/out/faults.jsonl" 2>/dev/null | grep '"event":"fault"' |
     grep -E '"reaction":"(SS1|STO)"' | sed -nE 's/.*"text":"([^"]*)".*/\1/p')
   [[ -n "$causes" ]] || return 1
-  ! grep -vE '^(consecutive deadline misses|stale feedback|drive lost|drive fault drive [0-9]+: EMCY 8250h)' \
+  ! grep -vE '^(consecutive deadline misses|stale feedback|drive lost|drive fault drive [0-9]+: EMCY 8(250|130)h)' \
     <<<"$causes" | grep -q .
 }
 faults_lines() { [[ -f "$tmp/out/faults.jsonl" ]] && wc -l <"$tmp/out/faults.jsonl" || echo 0; }
 retries=0
+idle_resets=0
 # run_paper: a signed start of the program until it completes (timing-only stops retried)
 run_paper() {
   local done0 stopped0 f0
   for attempt in 1 2 3; do
     done0=$(count "$pname done") stopped0=$(count "$pname STOPPED") f0=$(($(faults_lines) + 1))
+    refused0=$(count "start of .* refused")
     signed start "$program"
-    wait_count "$pname (done|STOPPED)" $((done0 + stopped0 + 1)) 120 ||
-      fail "$1: the signed start of $pname did not end in 120 s"
+    for ((w = 0; w < 2400; ++w)); do
+      [[ $(count "$pname (done|STOPPED)") -gt $((done0 + stopped0)) ]] && break
+      [[ $(count "start of .* refused") -gt $refused0 ]] &&
+        fail "$1: the signed start was refused: $(grep "start of .* refused" "$tmp/run.log" | tail -n 1)"
+      sleep 0.05
+    done
+    [[ $w -lt 2400 ]] || fail "$1: the signed start of $pname did not end in 120 s"
     [[ $(count "$pname done") -gt $done0 ]] && return 0
     timing_only "$f0" || fail "$1: $pname STOPPED, not by a timing watchdog"
     ((++retries))
@@ -162,7 +170,16 @@ kill -0 "$run_pid" 2>/dev/null || fail "the service ended while idle"
 "$dualv" status --lcm "$url" --timeout 10 >"$tmp/status.log" 2>&1 ||
   fail "dualv status found no robot state while the service is idle"
 grep -q "plate X" "$tmp/status.log" || fail "dualv status printed no state"
-grep -q "STO\|refused\|STOPPED" "$tmp/run.log" && echo "note: while idle: $(grep "STO\|refused\|STOPPED" "$tmp/run.log" | head -n 3)"
+# The first cycle must come within the drives' RPDO deadline after their priming; a frozen
+# guest can miss it (the service then warns, the drives report EMCY 8250h, the stop latches
+# with the drives disabled). Timing only: a signed reset clears it (retried like the steps).
+if grep -q "torque off (STO)" "$tmp/run.log"; then
+  timing_only 1 || fail "step 1: a stop while idle, not by a timing watchdog"
+  ((++idle_resets))
+  echo "note: step 1: stop latched while idle by a timing watchdog: $(grep -E "WARNING|torque off" "$tmp/run.log" | head -n 2 | tr '\n' ' ')"
+  signed reset
+  wait_count "reset accepted" 1 20 || fail "step 1: the signed reset after the idle stop was refused"
+fi
 
 # 2. A signed start of the paper program: it starts and completes.
 run_paper "step 2"
@@ -248,4 +265,4 @@ capture=$(compgen -G "$tmp/dump/candump-*.log" | head -n 1)
   --expect-enables $((4 + retries)) "$capture" || fail "wire check"
 echo "PASS: serve over vcan with the shipped configuration: idle state published; paper done;" \
   "stream done; e-stop during preparation refused; e-stop while running SS1 -> STO; reset;" \
-  "paper done; SIGINT exit 0; wire checked (timing-watchdog retries: $retries)"
+  "paper done; SIGINT exit 0; wire checked (timing-watchdog retries: $retries, idle resets: $idle_resets)"
