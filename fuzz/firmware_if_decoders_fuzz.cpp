@@ -18,7 +18,6 @@ namespace fw = dualv::fw;
 
 namespace {
 
-
 template <class T>
 void refused_unless_plain(const fw::Result<T>& r, const fw::CanFrame& f) {
   if (f.extended || f.rtr) FUZZ_CHECK(!r.ok());
@@ -162,9 +161,9 @@ void check_reassembly(FuzzedDataProvider& in) {
     if (e == fw::Error::kNone || e == fw::Error::kSizeMismatch) {  // the segment was taken
       // The receiver takes either segment type (it serves a client's upload and a server's
       // download; its caller dispatches by type): data-less ones count as 0 bytes.
-      FUZZ_CHECK((m->type == fw::SdoType::kUploadSegment ||
-                  m->type == fw::SdoType::kDownloadSegment) &&
-                 m->toggle == toggle);
+      FUZZ_CHECK(
+          (m->type == fw::SdoType::kUploadSegment || m->type == fw::SdoType::kDownloadSegment) &&
+          m->toggle == toggle);
       toggle = !toggle;
       total += m->data_len;
     }
