@@ -8,7 +8,8 @@
 #
 # Usage: scripts/fuzz.sh [--time SECONDS] [--runs N] [--jobs N] [TARGET...]
 #   --time S   run each target for S seconds (default 20: the bounded run scripts/test.sh does)
-#   --runs N   run each target for N executions instead (the campaign: --runs 10000000)
+#   --runs N   run each target for N executions (the campaign: --runs 10000000); with
+#              --time too, whichever comes first
 #   --jobs N   compile with N jobs (default: nproc)
 #   TARGET     some targets only (default: all), e.g. firmware_if_decoders sdo_client
 # New inputs that add coverage go to build/fuzz/corpus/<target>/ (kept between runs, so a
@@ -17,7 +18,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 ALL_TARGETS=(firmware_if_decoders sdo_client command_verifier robot_config program bus_attack)
-time_s=20
+time_s=""
 runs=""
 jobs=$(nproc)
 targets=()
@@ -32,6 +33,7 @@ while [ $# -gt 0 ]; do
   esac
 done
 [ ${#targets[@]} -gt 0 ] || targets=("${ALL_TARGETS[@]}")
+[ -n "$runs" ] || [ -n "$time_s" ] || time_s=20
 for t in "${targets[@]}"; do
   [ -d "fuzz/corpus/$t" ] || { echo "fuzz.sh: no target '$t' (known: ${ALL_TARGETS[*]})" >&2; exit 2; }
 done
@@ -56,11 +58,12 @@ for t in "${targets[@]}"; do
   log="$build/logs/$t.log"
   rm -rf "$findings"  # this run's findings only
   mkdir -p "$work" "$findings" "$(dirname "$log")"
-  limit=(-max_total_time="$time_s")
-  [ -n "$runs" ] && limit=(-runs="$runs")
+  limit=()
+  [ -n "$runs" ] && limit+=(-runs="$runs")
+  [ -n "$time_s" ] && limit+=(-max_total_time="$time_s")
   opts=(-timeout=120 -rss_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$findings/"
         -max_len="${MAX_LEN[$t]:-512}")
-  echo "== fuzz $t (${runs:+$runs runs}${runs:-${time_s} s}) =="
+  echo "== fuzz $t (${runs:+$runs runs }${time_s:+$time_s s}) =="
   start=$(date +%s)
   status=0
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \

@@ -128,7 +128,8 @@ TEST_F(CommandAuth, SenderTimesAtTheEndsOfInt64AreStale) {
   for (const std::int64_t utime : {lo, lo + 1, hi}) {
     const auto r = verifier_.verify(signed_cmd(CommandKind::kReset, seq++, utime), kNow);
     EXPECT_EQ(r.verdict, CommandVerdict::kStale) << utime << ": " << r.reason;
-    const auto sp = verifier_.verify_setpoint(make_setpoint(0.0, 0.0, 0.0, utime, seq++, &op_), kNow);
+    const auto sp =
+        verifier_.verify_setpoint(make_setpoint(0.0, 0.0, 0.0, utime, seq++, &op_), kNow);
     EXPECT_EQ(sp.verdict, CommandVerdict::kStale) << utime << ": " << sp.reason;
   }
   EXPECT_EQ(verifier_.verify(signed_cmd(CommandKind::kReset, seq++, lo), hi).verdict,
