@@ -10,6 +10,8 @@
 #   --time S   run each target for S seconds (default 20: the bounded run scripts/test.sh does)
 #   --runs N   run each target for N executions (the campaign: --runs 10000000); with
 #              --time too, whichever comes first
+#   --keep-going  do not stop a target at its first finding (libFuzzer -fork=1
+#              -ignore_crashes=1): a campaign goes on past a known, not yet fixed finding
 #   --jobs N   compile with N jobs (default: nproc)
 #   TARGET     some targets only (default: all), e.g. firmware_if_decoders sdo_client
 # New inputs that add coverage go to build/fuzz/corpus/<target>/ (kept between runs, so a
@@ -20,6 +22,7 @@ cd "$(dirname "$0")/.."
 ALL_TARGETS=(firmware_if_decoders sdo_client command_verifier robot_config program bus_attack)
 time_s=""
 runs=""
+keep_going=0
 jobs=$(nproc)
 targets=()
 while [ $# -gt 0 ]; do
@@ -27,7 +30,8 @@ while [ $# -gt 0 ]; do
     --time) time_s="$2"; shift 2 ;;
     --runs) runs="$2"; shift 2 ;;
     --jobs) jobs="$2"; shift 2 ;;
-    -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
+    --keep-going) keep_going=1; shift ;;
+    -h|--help) sed -n '2,18p' "$0"; exit 0 ;;
     -*) echo "fuzz.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
     *) targets+=("$1"); shift ;;
   esac
@@ -61,6 +65,7 @@ for t in "${targets[@]}"; do
   limit=()
   [ -n "$runs" ] && limit+=(-runs="$runs")
   [ -n "$time_s" ] && limit+=(-max_total_time="$time_s")
+  [ "$keep_going" = 1 ] && limit+=(-fork=1 -ignore_crashes=1)
   opts=(-timeout=120 -rss_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$findings/"
         -max_len="${MAX_LEN[$t]:-512}")
   echo "== fuzz $t (${runs:+$runs runs }${time_s:+$time_s s}) =="
@@ -70,6 +75,8 @@ for t in "${targets[@]}"; do
     "$build/fuzz/${t}_fuzz" "${limit[@]}" "${opts[@]}" "$work" "fuzz/corpus/$t" >"$log" 2>&1 || status=$?
   secs=$(( $(date +%s) - start ))
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
+  # (fork mode prints no final stats: its last progress line "#N: cov: ...")
+  [ -n "$execs" ] || execs=$(grep -oE '^#[0-9]+' "$log" | tail -1 | tr -d '#')
   cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | cut -d' ' -f2)
   n=$(find "$findings" -type f | wc -l)
   line=$(printf '%-22s %12s execs %6s s  coverage %6s  findings %s' "$t" "${execs:-?}" "$secs" "${cov:-?}" "$n")
