@@ -74,10 +74,10 @@ for t in "${targets[@]}"; do
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     "$build/fuzz/${t}_fuzz" "${limit[@]}" "${opts[@]}" "$work" "fuzz/corpus/$t" >"$log" 2>&1 || status=$?
   secs=$(( $(date +%s) - start ))
-  execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
+  execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1 || true)
   # (fork mode prints no final stats: its last progress line "#N: cov: ...")
-  [ -n "$execs" ] || execs=$(grep -oE '^#[0-9]+' "$log" | tail -1 | tr -d '#')
-  cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | cut -d' ' -f2)
+  [ -n "$execs" ] || execs=$(grep -oE '^#[0-9]+' "$log" | tail -1 | tr -d '#' || true)
+  cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | cut -d' ' -f2 || true)
   n=$(find "$findings" -type f | wc -l)
   line=$(printf '%-22s %12s execs %6s s  coverage %6s  findings %s' "$t" "${execs:-?}" "$secs" "${cov:-?}" "$n")
   summary+=("$line")
