@@ -185,8 +185,8 @@ bool cpu_has_avx2() noexcept {
   unsigned a = 0, b = 0, c1 = 0, c8 = 0, d = 0;
   if (!__get_cpuid(1, &a, &b, &c1, &d) || !__get_cpuid(0x80000001u, &a, &b, &c8, &d)) return false;
   return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
-         __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2") &&
-         (c1 & bit_F16C) != 0 && (c1 & bit_MOVBE) != 0 && (c8 & bit_LZCNT) != 0;
+         __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2") && (c1 & bit_F16C) != 0 &&
+         (c1 & bit_MOVBE) != 0 && (c8 & bit_LZCNT) != 0;
 #else
   return __builtin_cpu_supports("x86-64-v3");
 #endif
