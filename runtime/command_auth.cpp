@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <stdexcept>
 
 #include "common/config_error.hpp"
@@ -317,12 +318,17 @@ CommandVerdict CommandVerifier::check_signed(const std::string& key_id, const st
   }
   // Time and sequence only after the signature: an unauthenticated message
   // must not be able to advance the replay window.
-  const std::int64_t age = now_utime - utime;
-  if (age > max_age_us || -age > config_.max_future_us) {
+  // utime is the sender's, any int64 (fuzz/command_verifier found the overflow): the age
+  // saturates instead of overflowing.
+  std::int64_t age = 0;
+  if (__builtin_sub_overflow(now_utime, utime, &age))
+    age = utime < 0 ? std::numeric_limits<std::int64_t>::max()
+                    : std::numeric_limits<std::int64_t>::min();
+  if (age > max_age_us || age < -config_.max_future_us) {
     reason = fmt::format(
         "sent {:.3f} s {} (accepted: up to {:.3f} s old, {:.3f} s ahead): "
         "check both clocks (NTP)",
-        static_cast<double>(age < 0 ? -age : age) * 1e-6, age < 0 ? "in the future" : "ago",
+        std::abs(static_cast<double>(age)) * 1e-6, age < 0 ? "in the future" : "ago",
         static_cast<double>(max_age_us) * 1e-6, static_cast<double>(config_.max_future_us) * 1e-6);
     return CommandVerdict::kStale;
   }

@@ -5,6 +5,7 @@ set -euo pipefail
 
 PKGS=(
   build-essential cmake pkg-config clang-format
+  clang libclang-rt-dev   # the libFuzzer targets (fuzz/, scripts/fuzz.sh): clang + libFuzzer runtime
   libeigen3-dev
   liblcm-dev liblcm-bin libglib2.0-dev
   libgtest-dev libgmock-dev libbenchmark-dev

@@ -2,9 +2,14 @@
 # The whole test suite, as CI runs it: install dependencies, build with warnings as
 # errors, run every test (unit, property, and the vcan hardware-in-the-loop tests in a
 # user-mode-linux guest), build and install the Debian package and run the installed binary,
-# then rebuild with AddressSanitizer + UBSan and run the tests again.
+# then rebuild with AddressSanitizer + UBSan and run the tests again, rebuild the threaded
+# tests with ThreadSanitizer and run them, and run every libFuzzer target (fuzz/) for a
+# bounded time on its seed corpus (scripts/fuzz.sh; a finding fails the suite).
 # Usage: scripts/test.sh            (everything)
-#        DUALV_SKIP_ASAN=1 scripts/test.sh   (skip the sanitizer pass)
+#        DUALV_SKIP_ASAN=1 scripts/test.sh   (skip the ASan + UBSan pass)
+#        DUALV_SKIP_TSAN=1 scripts/test.sh   (skip the ThreadSanitizer pass)
+#        DUALV_SKIP_FUZZ=1 scripts/test.sh   (skip the fuzzing)
+#        DUALV_FUZZ_SECONDS=S scripts/test.sh   (seconds per fuzz target, default 20)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc)
@@ -35,4 +40,28 @@ if [ "${DUALV_SKIP_ASAN:-0}" != 1 ]; then
   echo "== tests (ASan + UBSan) =="
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     ctest --test-dir build/asan --output-on-failure -j"$jobs" --timeout 1800
+fi
+
+if [ "${DUALV_SKIP_TSAN:-0}" != 1 ]; then
+  echo "== ThreadSanitizer build (the threaded tests) =="
+  cmake -S . -B build/tsan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDUALV_TSAN=ON -DDUALV_WERROR=OFF \
+    -DDUALV_BUILD_BENCH=OFF >/dev/null
+  # The tests that run threads: the command channel, telemetry publisher and service
+  # notifier (runtime_tests), the SPSC queue (common_tests), the periodic executive
+  # (loop_tests), the e-stop latch, the fault log and stop requests from another thread
+  # (safety_tests), a streamed closed loop with its telemetry (apps_tests).
+  cmake --build build/tsan -j"$jobs" --target runtime_tests common_tests loop_tests safety_tests apps_tests
+  echo "== tests (ThreadSanitizer) =="
+  export TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1"
+  build/tsan/tests/runtime/runtime_tests --gtest_brief=1
+  build/tsan/tests/common/common_tests --gtest_brief=1 --gtest_filter='SpscQueue.*'
+  build/tsan/tests/control/loop/loop_tests --gtest_brief=1
+  build/tsan/tests/safety/safety_tests --gtest_brief=1 --gtest_filter='EstopLatch.*:FaultLog.*:SafetyFilter.*'
+  build/tsan/tests/apps/apps_tests --gtest_brief=1 --gtest_filter='StreamClosedLoop.*'
+  unset TSAN_OPTIONS
+fi
+
+if [ "${DUALV_SKIP_FUZZ:-0}" != 1 ]; then
+  echo "== fuzzing (libFuzzer + ASan + UBSan, ${DUALV_FUZZ_SECONDS:-20} s per target) =="
+  bash scripts/fuzz.sh --time "${DUALV_FUZZ_SECONDS:-20}" --jobs "$jobs"
 fi

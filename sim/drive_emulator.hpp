@@ -275,7 +275,8 @@ class DriveEmulator {
   Plant& plant_;
   DriveEmulatorConfig config_;
   int n_ = 0;
-  std::array<std::unique_ptr<Drive>, kMaxEmulatedDrives> drives_{};  // built once
+  // No {} here: clang would need Drive complete to destroy the elements of a braced init.
+  std::array<std::unique_ptr<Drive>, kMaxEmulatedDrives> drives_;  // built once, null before
   bool powered_ = false;
   bool estop_ = false;
   bool plant_started_ = false;         // a SYNC has been seen: plant time runs

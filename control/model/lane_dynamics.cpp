@@ -2,6 +2,9 @@
 
 #include <cmath>
 #include <cstring>
+#if defined(__x86_64__) && defined(__clang__) && __clang_major__ < 16
+#include <cpuid.h>
+#endif
 #include <stdexcept>
 #include <string>
 
@@ -176,7 +179,17 @@ template <int W>
 
 bool cpu_has_avx2() noexcept {
   __builtin_cpu_init();
+#if defined(__clang__) && __clang_major__ < 16
+  // clang before 16 (Debian 12's, which builds fuzz/) does not know the level name: its
+  // features one by one, the three __builtin_cpu_supports lacks from cpuid.
+  unsigned a = 0, b = 0, c1 = 0, c8 = 0, d = 0;
+  if (!__get_cpuid(1, &a, &b, &c1, &d) || !__get_cpuid(0x80000001u, &a, &b, &c8, &d)) return false;
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
+         __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2") && (c1 & bit_F16C) != 0 &&
+         (c1 & bit_MOVBE) != 0 && (c8 & bit_LZCNT) != 0;
+#else
   return __builtin_cpu_supports("x86-64-v3");
+#endif
 }
 #else
 bool cpu_has_avx2() noexcept { return false; }

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -116,6 +117,25 @@ TEST_F(CommandAuth, StaleWindowBoundariesAreExact) {
   EXPECT_EQ(at(kNow - cfg.max_age_us - 1), CommandVerdict::kStale);
   EXPECT_EQ(at(kNow + cfg.max_future_us), CommandVerdict::kAccepted);
   EXPECT_EQ(at(kNow + cfg.max_future_us + 1), CommandVerdict::kStale);
+}
+
+// fuzz/command_verifier found it: the age of a signed message whose sender time is near
+// INT64_MIN overflowed (undefined behaviour, caught by the UBSan pass of scripts/test.sh).
+TEST_F(CommandAuth, SenderTimesAtTheEndsOfInt64AreStale) {
+  constexpr std::int64_t lo = std::numeric_limits<std::int64_t>::min();
+  constexpr std::int64_t hi = std::numeric_limits<std::int64_t>::max();
+  std::int64_t seq = 1;
+  for (const std::int64_t utime : {lo, lo + 1, hi}) {
+    const auto r = verifier_.verify(signed_cmd(CommandKind::kReset, seq++, utime), kNow);
+    EXPECT_EQ(r.verdict, CommandVerdict::kStale) << utime << ": " << r.reason;
+    const auto sp =
+        verifier_.verify_setpoint(make_setpoint(0.0, 0.0, 0.0, utime, seq++, &op_), kNow);
+    EXPECT_EQ(sp.verdict, CommandVerdict::kStale) << utime << ": " << sp.reason;
+  }
+  EXPECT_EQ(verifier_.verify(signed_cmd(CommandKind::kReset, seq++, lo), hi).verdict,
+            CommandVerdict::kStale);
+  EXPECT_EQ(verifier_.verify(signed_cmd(CommandKind::kReset, seq++, hi), lo).verdict,
+            CommandVerdict::kStale);
 }
 
 TEST_F(CommandAuth, MalformedFieldsAreRefused) {

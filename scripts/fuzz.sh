@@ -1,0 +1,92 @@
+#!/usr/bin/env bash
+# The libFuzzer targets (fuzz/): builds them with Debian's clang in build/fuzz (libFuzzer +
+# AddressSanitizer + UndefinedBehaviorSanitizer) and runs each on its seed corpus
+# fuzz/corpus/<target>/. Prints, per target, the executions, the time and the findings, and
+# exits non-zero when any target found a crash, a leak, undefined behaviour, a timeout or an
+# out-of-memory; the input that did it is kept in build/fuzz/findings/<target>/ (reproduce:
+# build/fuzz/fuzz/<target>_fuzz FILE).
+#
+# Usage: scripts/fuzz.sh [--time SECONDS] [--runs N] [--jobs N] [TARGET...]
+#   --time S   run each target for S seconds (default 20: the bounded run scripts/test.sh does)
+#   --runs N   run each target for N executions (the campaign: --runs 10000000); with
+#              --time too, whichever comes first
+#   --keep-going  do not stop a target at its first finding (libFuzzer -fork=1
+#              -ignore_crashes=1): a campaign goes on past a known, not yet fixed finding
+#   --jobs N   compile with N jobs (default: nproc)
+#   TARGET     some targets only (default: all), e.g. firmware_if_decoders sdo_client
+# New inputs that add coverage go to build/fuzz/corpus/<target>/ (kept between runs, so a
+# campaign resumes where the last one stopped); fuzz/corpus/ is only read.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+ALL_TARGETS=(firmware_if_decoders sdo_client command_verifier robot_config program bus_attack)
+time_s=""
+runs=""
+keep_going=0
+jobs=$(nproc)
+targets=()
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --time) time_s="$2"; shift 2 ;;
+    --runs) runs="$2"; shift 2 ;;
+    --jobs) jobs="$2"; shift 2 ;;
+    --keep-going) keep_going=1; shift ;;
+    -h|--help) sed -n '2,18p' "$0"; exit 0 ;;
+    -*) echo "fuzz.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
+    *) targets+=("$1"); shift ;;
+  esac
+done
+[ ${#targets[@]} -gt 0 ] || targets=("${ALL_TARGETS[@]}")
+[ -n "$runs" ] || [ -n "$time_s" ] || time_s=20
+for t in "${targets[@]}"; do
+  [ -d "fuzz/corpus/$t" ] || { echo "fuzz.sh: no target '$t' (known: ${ALL_TARGETS[*]})" >&2; exit 2; }
+done
+
+bash scripts/install-deps.sh
+build=build/fuzz
+launcher=()
+command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+CC=clang CXX=clang++ cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDUALV_FUZZ=ON \
+  -DDUALV_BUILD_TESTS=OFF -DDUALV_BUILD_BENCH=OFF "${launcher[@]}" >/dev/null
+cmake --build "$build" -j"$jobs" --target "${targets[@]/%/_fuzz}"
+
+# Per-target options: the largest input (the configuration seed is ~11 kB) and the time one
+# input may take before libFuzzer calls it a hang (generous: a loaded 2-core machine is slow;
+# a real hang runs forever).
+declare -A MAX_LEN=([robot_config]=16384 [program]=4096 [bus_attack]=2048 [command_verifier]=2048)
+failed=0
+summary=()
+for t in "${targets[@]}"; do
+  work="$build/corpus/$t"
+  findings="$build/findings/$t"
+  log="$build/logs/$t.log"
+  rm -rf "$findings"  # this run's findings only
+  mkdir -p "$work" "$findings" "$(dirname "$log")"
+  limit=()
+  [ -n "$runs" ] && limit+=(-runs="$runs")
+  [ -n "$time_s" ] && limit+=(-max_total_time="$time_s")
+  [ "$keep_going" = 1 ] && limit+=(-fork=1 -ignore_crashes=1)
+  opts=(-timeout=120 -rss_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$findings/"
+        -max_len="${MAX_LEN[$t]:-512}")
+  echo "== fuzz $t (${runs:+$runs runs }${time_s:+$time_s s}) =="
+  start=$(date +%s)
+  status=0
+  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+    "$build/fuzz/${t}_fuzz" "${limit[@]}" "${opts[@]}" "$work" "fuzz/corpus/$t" >"$log" 2>&1 || status=$?
+  secs=$(( $(date +%s) - start ))
+  execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1 || true)
+  # (fork mode prints no final stats: its last progress line "#N: cov: ...")
+  [ -n "$execs" ] || execs=$(grep -oE '^#[0-9]+' "$log" | tail -1 | tr -d '#' || true)
+  cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | cut -d' ' -f2 || true)
+  n=$(find "$findings" -type f | wc -l)
+  line=$(printf '%-22s %12s execs %6s s  coverage %6s  findings %s' "$t" "${execs:-?}" "$secs" "${cov:-?}" "$n")
+  summary+=("$line")
+  if [ "$status" -ne 0 ] || [ "$n" -ne 0 ]; then
+    failed=1
+    echo "fuzz.sh: $t FAILED (exit $status); the finding:" >&2
+    grep -E 'ERROR|runtime error|SUMMARY|Test unit written' "$log" | head -20 >&2 || tail -30 "$log" >&2
+  fi
+done
+echo "== fuzz summary =="
+printf '%s\n' "${summary[@]}"
+exit $failed
