@@ -7,7 +7,7 @@
 #include <fstream>
 
 #include "common/config_error.hpp"
-#include "control/model/model_config.hpp"
+#include "control/config/model_config.hpp"
 #include "sim/plant.hpp"
 
 namespace dualv::apps {

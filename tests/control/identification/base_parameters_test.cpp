@@ -8,7 +8,7 @@
 #include <random>
 
 #include "control/identification/regressor.hpp"
-#include "control/model/model_config.hpp"
+#include "control/config/model_config.hpp"
 
 namespace dualv::identification {
 namespace {

@@ -9,7 +9,7 @@
 
 #include "control/model/dynamics.hpp"
 #include "control/model/kinematics.hpp"
-#include "control/model/model_config.hpp"
+#include "control/config/model_config.hpp"
 #include "sim/plant.hpp"
 
 namespace dualv::identification {
