@@ -132,6 +132,9 @@ int serve(const RobotConfig& cfg, Machine& machine, runtime::CommandChannel& com
         fmt::print("dualv run: reset accepted: drives disabled, a start command is accepted again\n");
         service.status("waiting for start");
       }
+      if (e.kind == K::kResetRefused)
+        fmt::print(stderr, "dualv run: reset refused: still active: {}\n",
+                   safety::describe_faults(e.latched));
     }
     runtime::VerifiedCommand cmd;
     if (!commands.try_pop(cmd)) {
@@ -141,7 +144,7 @@ int serve(const RobotConfig& cfg, Machine& machine, runtime::CommandChannel& com
     }
     if (cmd.kind == runtime::CommandKind::kReset) {
       loop.submit(control::LoopCommand::Kind::kReset);
-      fmt::print("dualv run: reset (key {}): a start command is accepted again\n", cmd.key_id);
+      fmt::print("dualv run: reset (key {}) requested\n", cmd.key_id);
       continue;
     }
     if (cmd.kind == runtime::CommandKind::kStop) {
@@ -283,30 +286,13 @@ int run(const RunArgs& args) {
     loop_thread = std::make_unique<control::LoopThread>(exec, mono, &mono);
     for (const auto& w : loop_thread->launch().warnings) fmt::print(stderr, "dualv run: {}\n", w);
   }
-  std::uint64_t rpdo_deadline_ns = 0;
-  std::int64_t primed_ns = 0;
-  if (!args.can.empty()) {
-    if (args.variants.empty()) {  // on drives, the proposed method only unless asked
-      variants.clear();
-      variants.push_back(paper_variants().front());
-    }
-    const drivers::CanConfig can = drivers::load_can_config_file(cfg.path);
-    rpdo_deadline_ns = can.rpdo_deadline_ns;
-    drivers::CanopenSetupOptions opts;
-    opts.interface = args.can;
-    opts.control_period_s = cfg.period();
-    opts.log = [](const std::string& line) { fmt::print("  {}\n", line); };
-    fmt::print("dualv run: booting the drives on {}\n", args.can);
-    drives = drivers::open_canopen_drives(can, opts);
-    primed_ns = mono.now_ns();
-  }
-
   const std::string out = args.out.empty() ? default_out_dir() : args.out;
   std::filesystem::create_directories(out);
   fmt::print(
       "dualv run: {} ({} segments, {:.2f} s) on {} at {:.0f} Hz{}\n", program_file, program.size(),
       program.duration(),
-      drives ? "the CANopen drives on " + args.can : std::string("the in-process simulated Dual-V"),
+      !args.can.empty() ? "the CANopen drives on " + args.can
+                        : std::string("the in-process simulated Dual-V"),
       cfg.rate_hz(), paced ? ", paced in real time" : ", simulated time");
   // Telemetry: an LCM log in the output folder (LCM's file provider: no network), or live.
   const std::string log_file = out + "/telemetry.lcmlog";
@@ -338,6 +324,26 @@ int run(const RunArgs& args) {
   }
   // Ctrl-C: a controlled stop (SS1), not a dropped robot; the idle service ends cleanly.
   install_stop_signal_handlers(args.serve);
+
+  // The drives boot last, right before their loop starts: their RPDO deadline and heartbeat
+  // consumer run from the last priming cycle on.
+  std::uint64_t rpdo_deadline_ns = 0;
+  std::int64_t primed_ns = 0;
+  if (!args.can.empty()) {
+    if (args.variants.empty()) {  // on drives, the proposed method only unless asked
+      variants.clear();
+      variants.push_back(paper_variants().front());
+    }
+    const drivers::CanConfig can = drivers::load_can_config_file(cfg.path);
+    rpdo_deadline_ns = can.rpdo_deadline_ns;
+    drivers::CanopenSetupOptions opts;
+    opts.interface = args.can;
+    opts.control_period_s = cfg.period();
+    opts.log = [](const std::string& line) { fmt::print("  {}\n", line); };
+    fmt::print("dualv run: booting the drives on {}\n", args.can);
+    drives = drivers::open_canopen_drives(can, opts);
+    primed_ns = mono.now_ns();
+  }
 
   // The machine: the in-process simulation or the drives, and the one loop that owns them.
   std::unique_ptr<sim::Plant> plant;

@@ -260,7 +260,6 @@ Machine::Machine(const RobotConfig& config, drivers::ActuatorSet& io,
   executor_ = std::make_unique<control::Executor>(config.model, config.control, ec, io);
   executor_->set_hooks(hooks_.get());
   if (options.commands) executor_->watch_estops(&options.commands->estop_counter());
-  drain_ = std::make_unique<Drain>(executor_->safety().log(), options_);
   control::ExecutiveConfig exec = config.loop;
   exec.realtime = paced();
   if (options.pacing == Pacing::kLoopThread && launched) {
@@ -291,8 +290,12 @@ void Machine::start() {
   if (g_stop_signal.load()) executor_->request_estop(safety::StopSource::kSignal);
   if (thread_) {
     thread_->go(*executor_);
+    // Set-up that may take a while (a thread: its stack is locked under mlockall) comes after
+    // the first cycle: the drives' deadlines run from the priming on.
+    drain_ = std::make_unique<Drain>(executor_->safety().log(), options_);
     while (executor_->snapshot().cycle < 0 && thread_->running()) pump();
   } else {
+    drain_ = std::make_unique<Drain>(executor_->safety().log(), options_);
     stepper_->begin();
     if (options_.on_realtime) options_.on_realtime(stepper_->realtime_status());
     pump();  // the first cycle: the pose is known from here on

@@ -199,6 +199,7 @@ void Executor::take_commands() noexcept {
         break;
       case LoopCommand::Kind::kReset:
         cycle_.safety().request_reset();
+        reset_waiting_ = true;
         break;
       case LoopCommand::Kind::kShutdown:
         shutting_down_ = true;
@@ -256,7 +257,14 @@ void Executor::after_step() noexcept {
       emit(LoopEvent::Kind::kReset, 0);
       mode_ = LoopMode::kIdle;
       torque_off_reported_ = false;
+      reset_waiting_ = false;
     }
+  }
+  // A reset the filter is done with and that did not lead to idle was refused (its causes
+  // are still active, or the stop is still braking); one with nothing latched changes nothing.
+  if (reset_waiting_ && !cycle_.safety().report().reset_pending) {
+    reset_waiting_ = false;
+    if (mode_ == LoopMode::kSafeStop) emit(LoopEvent::Kind::kResetRefused, 0);
   }
   if (active && (mode_ == LoopMode::kProgram || mode_ == LoopMode::kStream) &&
       cycle_.phase() == CyclePhase::kHolding &&

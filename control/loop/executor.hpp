@@ -84,6 +84,7 @@ struct LoopEvent {
     kStopped,       // the safety filter stopped (SS1/STO begun); id: the reference, 0 idle
     kTorqueOff,     // the stop reached torque off (STO)
     kReset,         // a reset was accepted: idle, drives disabled
+    kResetRefused,  // a reset was refused: latched = the causes still active
     kLoopEnded,     // shutdown complete: the loop returns
   };
   Kind kind = Kind::kStarted;
@@ -221,6 +222,7 @@ class Executor {
   LoopMode mode_ = LoopMode::kIdle;
   bool shutting_down_ = false;
   bool torque_off_reported_ = false;
+  bool reset_waiting_ = false;  // a reset was forwarded to the filter: report its outcome
   std::int64_t settle_cycles_ = 0;
   int injected_misses_ = 0;
   std::uint64_t cycle_reference_ = 0;
