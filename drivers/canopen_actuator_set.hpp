@@ -2,7 +2,7 @@
 // The n CiA 402 drives on a CanBus as one ActuatorSet (drivers/actuator_set.hpp), the
 // same whether the bus is a real controller, vcan, or the in-process bus.
 //
-// Cycle order (one SYNC per control cycle; DESIGN.md "CAN contract"):
+// Cycle order (one SYNC per control cycle; docs/architecture.md "CAN contract"):
 //
 //   cycle k:   read()  drains every frame received since the last read(): the TPDO1s the
 //                      drives sent after SYNC k-1 (statusword, position), heartbeats, EMCYs.
@@ -21,7 +21,7 @@
 // SYNC k. The drives are booted before this class runs (drivers/canopen/boot.hpp,
 // drivers/canopen_setup.hpp); it never sends SDO or NMT.
 //
-// Faults (DESIGN.md "Safety"): bus-off is latched (read/write return kBusError and send
+// Faults (docs/architecture.md "Safety"): bus-off is latched (read/write return kBusError and send
 // nothing; recover_bus() restarts the controller, after which every drive is disabled and
 // needs a new kEnable); a send refused with ENOBUFS is counted and dropped, never queued
 // (nothing is sent late); duplicate, late and out-of-order TPDOs, foreign SYNCs and SYNC

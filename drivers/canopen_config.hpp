@@ -32,7 +32,7 @@ using fw::ObjectPolicy;
 using fw::OnExit;
 using fw::to_string;
 
-// The Dual-V default: four drives, node ids 1..4, the contract of DESIGN.md.
+// The Dual-V default: four drives, node ids 1..4, the contract of docs/architecture.md.
 CanConfig default_can_config();
 
 // Reads the `can:` node (the section itself, e.g. root["can"]). An absent section gives
@@ -54,7 +54,7 @@ void validate(const CanConfig& config);
 // SYNC period differs from the control loop's period (loop.rate_hz).
 void check_sync_period(const CanConfig& config, double control_period_s);
 
-// ---- bus load (DESIGN.md "CAN contract") -----------------------------------------------
+// ---- bus load (docs/architecture.md "CAN contract") -----------------------------------------------
 // Worst-case bits per cycle for the configured drives, layout, SYNC and rate.
 fw::BusLoadReport bus_load_report(const CanConfig& config) noexcept;
 // Printable, e.g.

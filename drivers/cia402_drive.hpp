@@ -5,7 +5,7 @@
 // bit 7; quick stop; disable. It only computes controlwords: the actuator set puts them on
 // the wire and feeds back the statuswords.
 //
-// Rules (DESIGN.md "What users ... ask for" 1-3):
+// Rules (docs/architecture.md "What users of similar stacks ask for" 1-3):
 //  - Torque is allowed only while the last statusword says Operation enabled AND the host
 //    asked for it (goal Operation enabled) AND no fault reset is in progress. Otherwise the
 //    target torque is 0: no motion on enable, a stale target is never replayed.

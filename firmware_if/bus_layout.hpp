@@ -1,5 +1,5 @@
 #pragma once
-// The three bus layouts of issue 15 and their worst-case load (DESIGN.md "CAN contract" and
+// The three bus layouts of issue 15 and their worst-case load (docs/architecture.md "CAN contract" and
 // "Beating the naive bus limit"); frame sizes from firmware_if/can_frame_bits.hpp.
 //
 //   per-drive  SYNC, RPDO1 controlword + torque (4 B) and TPDO1 statusword + position (6 B)

@@ -1,6 +1,6 @@
 #pragma once
 // Bits on the wire of one CAN data frame, classic CAN and CAN FD, without stuffing and in the
-// worst case of bit stuffing (DESIGN.md "Beating the naive bus limit"). The frame fields are
+// worst case of bit stuffing (docs/architecture.md "Beating the naive bus limit"). The frame fields are
 // those of ISO 11898-1:2015 (clause 10.4, frame formats; clause 10.5, frame coding); the FD
 // frame is that of the Bosch "CAN with Flexible Data-Rate" specification 1.0 (2012) with the
 // ISO additions (stuff count, CRC over the dynamic stuff bits).

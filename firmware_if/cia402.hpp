@@ -223,7 +223,7 @@ constexpr std::optional<Transition> slave_transition(Cia402State from, Command c
 // Fault reaction active, Fault; Quick stop active from anywhere but Operation enabled).
 // From Quick stop active towards Operation enabled this takes 12 (disable voltage) and the
 // full 2-3-4 path, never 16: re-enabling goes through Ready to switch on, so a stale target
-// is never applied (DESIGN.md users #1) and it works whatever 605Ah says.
+// is never applied (docs/architecture.md users #1) and it works whatever 605Ah says.
 // From Fault the command is fault reset (15) for targets Switch on disabled .. Operation
 // enabled; the caller sends bit 7 = 0 first so that bit 7 rises.
 std::optional<Transition> next_transition(Cia402State from, Cia402State target) noexcept;
@@ -249,7 +249,7 @@ constexpr std::uint32_t supported_mode_bit(ModeOfOperation m) noexcept {
 
 // ---- option codes ------------------------------------------------------------------------
 // 6007h abort connection option (CiA 402-2): what the drive does when the host's heartbeat
-// or an RPDO deadline is lost. Default configured: kQuickStop (DESIGN.md "Safety").
+// or an RPDO deadline is lost. Default configured: kQuickStop (docs/architecture.md "Safety").
 enum class AbortConnectionOption : std::int16_t {
   kNoAction = 0,
   kFaultSignal = 1,

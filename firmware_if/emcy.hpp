@@ -3,7 +3,7 @@
 //   bytes 0..1 emergency error code (u16 LE), byte 2 error register (1001h),
 //   bytes 3..7 manufacturer-specific error field.
 // Error code 0000h means "error reset or no error": the producer left the error state.
-// A consumer must clear the drive's fault on it, never raise one (DESIGN.md, users #6).
+// A consumer must clear the drive's fault on it, never raise one (docs/architecture.md, users #6).
 #include <array>
 #include <cstdint>
 

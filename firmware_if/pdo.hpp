@@ -1,6 +1,6 @@
 #pragma once
 // PDO mapping (CiA 301 7.4.7.1 / 7.5.2.36) and the PDO layouts of the CAN contract
-// (DESIGN.md): per-drive RPDO1 = controlword + target torque, TPDO1 = statusword + position
+// (docs/architecture.md): per-drive RPDO1 = controlword + target torque, TPDO1 = statusword + position
 // actual; or one broadcast RPDO carrying every drive's target torque ("Beating the naive bus
 // limit"), with the controlword moved to its own event-driven RPDO1.
 #include <array>

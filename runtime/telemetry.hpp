@@ -1,7 +1,7 @@
 #pragma once
 // Plain telemetry samples: what the real-time cycle hands to the publisher
 // thread. Fixed-size, trivially copyable, no LCM types and no std::string, so
-// queueing one is a memcpy into a preallocated slot (DESIGN.md: nothing in the
+// queueing one is a memcpy into a preallocated slot (docs/architecture.md: nothing in the
 // cycle allocates). The publisher converts them to dualv_lcm messages.
 #include <algorithm>
 #include <array>

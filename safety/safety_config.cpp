@@ -13,7 +13,7 @@ namespace {
 
 // Ranges every value must lie in: wide enough for any n-RRR machine of this size class,
 // narrow enough to catch unit mistakes (N m vs mN m, rad vs deg, s vs ms).
-constexpr double kDrivePeakTorque = 127.0;  // [N m] the Dual-V's ETEL drives (DESIGN.md)
+constexpr double kDrivePeakTorque = 127.0;  // [N m] the Dual-V's ETEL drives (docs/architecture.md)
 
 Range read_range(YamlReader& r, const std::string& key, Range fallback, double lo, double hi) {
   const bool present = r.has(key);

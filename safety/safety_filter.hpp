@@ -1,6 +1,6 @@
 #pragma once
 // The safety filter: sits between the control law and ActuatorSet::write() and owns the
-// final torque and DriveRequest (DESIGN.md: drives -> ... -> controller -> SAFETY -> drives).
+// final torque and DriveRequest (docs/architecture.md: drives -> ... -> controller -> SAFETY -> drives).
 //
 // Every cycle, update() (noexcept, no allocation, no syscalls):
 //   1. takes external stop/reset requests (EstopLatch, any thread);
@@ -185,7 +185,7 @@ class SafetyFilter {
 // written is the filter's output; if not, it writes torque 0 + kDisable (STO) instead and
 // reports it to the filter (latched as kSafetyCheckMissed). Catches a cycle that skips or
 // bypasses the safety check. The last line of defence when the whole process dies is on the
-// drives: heartbeat consumer 1016h and RPDO deadline (DESIGN.md), not this class.
+// drives: heartbeat consumer 1016h and RPDO deadline (docs/architecture.md), not this class.
 class WriteGuard {
  public:
   explicit WriteGuard(SafetyFilter& filter) noexcept : filter_(&filter) {}

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Lists the #include edges between the layers of DESIGN.md "Layers" and fails (exit 1) on
+# Lists the #include edges between the layers of docs/architecture.md "Layers" and fails (exit 1) on
 # one that goes up (a lower layer including a higher one, or sim including more of drivers
 # than the bus interface). Run from anywhere: scripts/check-layers.sh [-q]
 #   -q  only the violations (no edge table)

@@ -88,7 +88,7 @@ struct PlantConfig {
 
   struct Saturation {
     bool enabled = true;
-    double peak_torque = 127.0;  // [N m] the ETEL drives' peak (DESIGN.md)
+    double peak_torque = 127.0;  // [N m] the ETEL drives' peak (docs/architecture.md)
   } saturation;
 
   struct TransportDelay {

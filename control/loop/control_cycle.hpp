@@ -1,5 +1,5 @@
 #pragma once
-// One real-time control cycle, in the order DESIGN.md fixes:
+// One real-time control cycle, in the order docs/architecture.md fixes:
 //   drives -> read -> estimate -> reference -> control law -> safety -> write -> drives.
 // The loop that runs it every period, from boot to shutdown, is control/loop/executor.hpp.
 //

@@ -3,7 +3,7 @@
 // in-process simulation step time themselves instead of sleeping.
 //
 // Real-time safety: every member is noexcept and allocation-free; the only
-// syscalls are clock_gettime and clock_nanosleep (DESIGN.md "Rules for the
+// syscalls are clock_gettime and clock_nanosleep (docs/architecture.md "Rules for the
 // real-time path").
 #include <cstdint>
 

@@ -41,7 +41,7 @@ struct Chain {
   Vec2 plate_anchor = Vec2::Zero();  // c_i, plate frame [m]
   double crank_length = 0.0;         // l1 [m]
   double coupler_length = 0.0;       // l2 [m]
-  int working_mode = 1;              // s_i = +1 or -1 (elbow side, DESIGN.md IK)
+  int working_mode = 1;              // s_i = +1 or -1 (elbow side, docs/architecture.md IK)
   Body crank;                        // link frame: origin A_i, x towards B_i
   Body coupler;                      // link frame: origin B_i, x towards C_i
 };

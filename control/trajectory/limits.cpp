@@ -11,7 +11,7 @@ namespace {
 // Physical ranges (limits.hpp): a Dual-V-sized machine; beyond them a value is a unit mistake.
 constexpr double kMaxWorkspace = 2.0;            // [m] |x|, |y| of the plate
 constexpr double kMaxAngle = 3.2;                // [rad] |theta|
-constexpr double kDrivePeakTorque = 127.0;       // [N m] the ETEL drives (DESIGN.md)
+constexpr double kDrivePeakTorque = 127.0;       // [N m] the ETEL drives (docs/architecture.md)
 constexpr double kMaxJointSpeed = 100.0;         // [rad/s]
 constexpr double kMaxPlateSpeed = 10.0;          // [m/s]
 constexpr double kMaxPlateAcceleration = 1e3;    // [m/s^2]

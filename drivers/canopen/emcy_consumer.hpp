@@ -1,7 +1,7 @@
 #pragma once
 // EMCY consumer for one node (CiA 301 7.2.7): decoded emergency messages with readable text
 // (fw::emcy_text). Error code 0000h ("error reset / no error") clears the active error and
-// is never reported as a new one (DESIGN.md users #6). Real-time safe.
+// is never reported as a new one (docs/architecture.md users #6). Real-time safe.
 #include <cstdint>
 
 #include "firmware_if/emcy.hpp"

@@ -1,7 +1,7 @@
 #pragma once
 // The master's own heartbeat (CiA 301 7.2.8.3.2.2) on 700h + master node id. The drives
 // consume it (their 1016h, written at boot) and stop on their own (6007h abort connection
-// option) when the host dies (DESIGN.md users #4). Real-time safe.
+// option) when the host dies (docs/architecture.md users #4). Real-time safe.
 #include <cstdint>
 
 #include "drivers/can/can_bus.hpp"

@@ -1,6 +1,6 @@
 // `dualv bus-load` (apps/cmd_bus_load.cpp), the real binary: the configured drives, bit rate
 // and SYNC period reach the side-by-side table, whose figures are checked against values
-// computed by hand from the frame sizes (DESIGN.md "Beating the naive bus limit").
+// computed by hand from the frame sizes (docs/architecture.md "Beating the naive bus limit").
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>

@@ -1,5 +1,5 @@
 // The three bus layouts of issue 15 (firmware_if/bus_layout.hpp) against figures computed by
-// hand from the frame sizes (DESIGN.md "Beating the naive bus limit").
+// hand from the frame sizes (docs/architecture.md "Beating the naive bus limit").
 #include "firmware_if/bus_layout.hpp"
 
 #include <gtest/gtest.h>
@@ -27,7 +27,7 @@ TEST(BusLayout, BroadcastByHand) {
   const LayoutLoad r = layout_load(BusLayout::kBroadcast, BusParams{}, 1500.0);
   EXPECT_EQ(r.cyclic_bits, (FrameBits{570, 0}));
   EXPECT_NEAR(r.event_load, 0.06, 1e-12);
-  EXPECT_NEAR(r.cyclic_load, 0.855, 1e-9);  // DESIGN.md: 85.5 % at 1.5 kHz
+  EXPECT_NEAR(r.cyclic_load, 0.855, 1e-9);  // docs/architecture.md: 85.5 % at 1.5 kHz
   EXPECT_NEAR(r.total_load, 0.915, 1e-9);
   EXPECT_TRUE(r.fits);  // the issue's target: 1.5 kHz within 90 % / 95 %
   // The total limit binds: (0.95 - 0.06) / 570 us = 1561.4 Hz (< 0.90 / 570 us = 1578.9 Hz).

@@ -6,7 +6,7 @@ namespace dualv::fw {
 namespace {
 
 TEST(BusLoad, FrameBitsFromDesign) {
-  // DESIGN.md: SYNC 55, RPDO (4 B) 95, TPDO (6 B) 115 bits.
+  // docs/architecture.md: SYNC 55, RPDO (4 B) 95, TPDO (6 B) 115 bits.
   EXPECT_EQ(worst_case_frame_bits(0), 55u);
   EXPECT_EQ(worst_case_frame_bits(4), 95u);
   EXPECT_EQ(worst_case_frame_bits(6), 115u);
@@ -21,7 +21,7 @@ TEST(BusLoad, FrameBitsFromDesign) {
 }
 
 TEST(BusLoad, CycleBitsFromDesign) {
-  // DESIGN.md: 55 + 4*95 + 4*115 = 895; broadcast 55 + 135 + 4*115 = 650.
+  // docs/architecture.md: 55 + 4*95 + 4*115 = 895; broadcast 55 + 135 + 4*115 = 650.
   EXPECT_EQ(cycle_bits(4, RpdoLayoutKind::kPerDrive), 895u);
   EXPECT_EQ(cycle_bits(4, RpdoLayoutKind::kBroadcast), 650u);
   // Other sizes, by hand: 1 drive 55 + 95 + 115; broadcast of 2 (one 4-byte frame):

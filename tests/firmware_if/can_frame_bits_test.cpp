@@ -168,7 +168,7 @@ TEST(CanFrameBits, ClassicWithoutStuffingMatchesFrameFormat) {
 }
 
 TEST(CanFrameBits, ClassicWorstCaseBoundsEveryFrame) {
-  // Hand values of 47 + 8n + floor((34 + 8n - 1) / 4) (DESIGN.md): 55, 75, 95, 115, 135.
+  // Hand values of 47 + 8n + floor((34 + 8n - 1) / 4) (docs/architecture.md): 55, 75, 95, 115, 135.
   EXPECT_EQ(classic_frame_bits(0).total(), 55u);
   EXPECT_EQ(classic_frame_bits(2).total(), 75u);
   EXPECT_EQ(classic_frame_bits(4).total(), 95u);

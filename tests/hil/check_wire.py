@@ -48,7 +48,7 @@ CAN_ERR_BUSOFF = 0x40
 
 
 def from_master(cob, master):
-    """COB-IDs only the master sends (DESIGN.md, CAN contract)."""
+    """COB-IDs only the master sends (docs/architecture.md, CAN contract)."""
     return (cob == 0x000 or cob == 0x080 or 0x200 <= cob <= 0x27F or 0x600 <= cob <= 0x67F
             or cob == 0x700 + master)
 

@@ -56,7 +56,7 @@ for ((i = 0; i < vcans; ++i)); do
   ip link add dev "vcan$i" type vcan >>"$out" 2>&1 || setup_fail "ip link add vcan$i"
   ip link set "vcan$i" up >>"$out" 2>&1 || setup_fail "ip link set vcan$i up"
 done
-# LCM's UDP multicast stays inside the guest: loopback only (DESIGN.md).
+# LCM's UDP multicast stays inside the guest: loopback only (docs/architecture.md).
 ip link set lo up && ip link set lo multicast on && ip route add 224.0.0.0/4 dev lo ||
   setup_fail "loopback multicast set-up"
 hostname dualv-hil 2>/dev/null

@@ -2,10 +2,13 @@
 // by the test, the simulated Dual-V (sim/plant.hpp) advances one period after each, so every
 // mode change, refusal and stop is checked at an exact cycle, deterministically.
 #include "control/loop/executor.hpp"
+#include "control/loop/loop_thread.hpp"
 
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
+#include <thread>
 #include <memory>
 #include <vector>
 
@@ -414,6 +417,56 @@ TEST(Executor, CyclesAllocateNothingIdleRunningOrStopping) {
   }
   EXPECT_EQ(test::stop_counting(), 0L);
   EXPECT_EQ(r.executor.snapshot().safety, SafetyState::kSto);
+}
+
+// The loop on its own thread (control/loop/loop_thread.hpp) with the supervisor on this one:
+// what crosses threads is only the queues and the snapshot (run under ThreadSanitizer by
+// scripts/test.sh). Asserts the order of events, never timing.
+TEST(Executor, OnItsOwnThreadTheSupervisorStartsAStreamStopsItAndShutsTheLoopDown) {
+  struct PlantHooks final : LoopHooks {
+    explicit PlantHooks(sim::Plant& p) : plant(p) {}
+    void after_cycle(const Executor&, const CycleRecord&, const CycleInfo&) noexcept override {
+      plant.advance(robot().period());
+    }
+    sim::Plant& plant;
+  };
+  sim::Plant plant(robot().model, robot().plant);
+  plant.reset(robot().model.home);
+  sim::SimActuatorSet io(plant);
+  Executor ex(robot().model, robot().control, LoopRig::config(IdleMode::kDisabled), io);
+  PlantHooks hooks(plant);
+  ex.set_hooks(&hooks);
+  ExecutiveConfig exec = robot().loop;
+  exec.realtime = false;  // no SCHED_FIFO needed for this
+  MonotonicClock clock;
+  LoopThread thread(exec, clock);
+  thread.launch();
+  thread.go(ex);
+  std::vector<LoopEvent> events;
+  auto wait_for = [&](K kind) {
+    for (int k = 0; k < 30000; ++k) {  // up to 30 s on a loaded machine
+      LoopEvent e;
+      while (ex.poll_event(e)) events.push_back(e);
+      for (const auto& e2 : events)
+        if (e2.kind == kind) return true;
+      ex.collect();
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    return false;
+  };
+  while (ex.snapshot().cycle < 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  const std::uint64_t id = ex.start(ex.prepare_stream(
+      robot().trajectory.streaming, robot().trajectory.limits.workspace, ex.estop_epoch()));
+  ASSERT_TRUE(wait_for(K::kStarted));
+  ASSERT_TRUE(ex.submit(LoopCommand::Kind::kEndStream));
+  ASSERT_TRUE(wait_for(K::kFinished));
+  ASSERT_TRUE(ex.submit(LoopCommand::Kind::kShutdown));
+  ASSERT_TRUE(wait_for(K::kLoopEnded));
+  const RunReport report = thread.join();
+  EXPECT_GT(report.cycles, 0);
+  EXPECT_EQ(events.front().kind, K::kStarted);
+  EXPECT_EQ(events.front().id, id);
+  EXPECT_EQ(ex.snapshot().mode, LoopMode::kIdle);
 }
 
 }  // namespace

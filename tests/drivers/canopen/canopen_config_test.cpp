@@ -325,7 +325,7 @@ TEST(CanConfigRules, SyncPeriodMustEqualControlPeriod) {
 TEST(CanBusLoad, ContractNumbers) {
   CanConfig c = default_can_config();
   fw::BusLoadReport r = bus_load_report(c);
-  EXPECT_EQ(r.bits_per_cycle, 895u);  // DESIGN.md: 55 + 4 * 95 + 4 * 115
+  EXPECT_EQ(r.bits_per_cycle, 895u);  // docs/architecture.md: 55 + 4 * 95 + 4 * 115
   EXPECT_NEAR(r.load, 0.895, 1e-12);
   EXPECT_TRUE(r.fits);
   c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;

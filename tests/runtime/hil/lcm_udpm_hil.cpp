@@ -1,7 +1,7 @@
 // LCM over UDP multicast between two processes: telemetry one way, a signed
 // command the other. Runs only under tests/hil/run_in_vcan.sh in a private
 // network stack (user-mode-linux guest or a fresh network namespace, where
-// loopback multicast is routed): DESIGN.md forbids multicast on the host network.
+// loopback multicast is routed): docs/architecture.md forbids multicast on the host network.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
