@@ -27,6 +27,7 @@
 #include "apps/experiment/report.hpp"
 #include "apps/experiment/robot_config.hpp"
 #include "common/yaml_reader.hpp"
+#include "control/loop/periodic_executive.hpp"
 #include "control/loop/control_cycle.hpp"
 #include "control/trajectory/program.hpp"
 #include "drivers/canopen_config.hpp"
@@ -55,10 +56,11 @@ class Backend {
 
  protected:
   void make_machine(const RobotConfig& cfg, drivers::ActuatorSet& drives, Pacing pacing,
-                    sim::Plant* plant) {
+                    sim::Plant* plant, bool memory_locked = false) {
     io_ = std::make_unique<safety::FaultInjector>(drives);
     MachineOptions mo;
     mo.pacing = pacing;
+    mo.memory_locked = memory_locked;
     mo.on_realtime = [](const control::RealtimeStatus& rt) {
       for (const auto& w : rt.warnings) fmt::print(stderr, "dualv selftest: {}\n", w);
     };
@@ -89,9 +91,16 @@ class CanBackend final : public Backend {
  public:
   CanBackend(const RobotConfig& cfg, const std::string& iface) {
     drivers::CanConfig can = drivers::load_can_config_file(cfg.path);
+    // The slow part of the real-time set-up (mlockall) before the drives boot: their RPDO
+    // deadline and heartbeat consumer run from the last priming cycle on.
+    control::ExecutiveConfig exec = cfg.loop;
+    exec.priority = 0;  // this thread gets SCHED_FIFO when the loop begins
+    control::MonotonicClock clock;
+    control::PeriodicExecutive early(exec, clock);
+    const bool locked = early.prepare_realtime().memory_locked;
     drivers_ = drivers::open_canopen_drives(
         can, {iface, cfg.period(), [](const std::string& s) { fmt::print("  {}\n", s); }});
-    make_machine(cfg, drivers_->actuators(), Pacing::kCallerThread, nullptr);
+    make_machine(cfg, drivers_->actuators(), Pacing::kCallerThread, nullptr, locked);
   }
   ~CanBackend() override {
     machine_.reset();  // the loop ends: drives disabled; then as can.on_exit says

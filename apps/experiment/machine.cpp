@@ -110,7 +110,7 @@ bool stop_signal_received() noexcept { return g_stop_signal.load(); }
 // --- what runs inside the cycle -----------------------------------------------------------
 class Machine::Hooks final : public control::LoopHooks {
  public:
-  static constexpr std::size_t kSamples = 16384;  // 16 s at 1 kHz of supervisor stall
+  static constexpr std::size_t kSamples = 4096;  // 4 s at 1 kHz of supervisor stall
   Hooks(const RobotConfig& config, const MachineOptions& options, sim::Plant* plant)
       : n_(config.model.n),
         period_(config.period()),
@@ -269,6 +269,7 @@ Machine::Machine(const RobotConfig& config, drivers::ActuatorSet& io,
     const control::RealtimeStatus& rt = thread_->launch();  // SCHED_FIFO etc. on its thread
     if (options.on_realtime) options.on_realtime(rt);
   } else if (options.pacing == Pacing::kCallerThread) {
+    if (options.memory_locked) exec.lock_memory = false;
     stepper_ = std::make_unique<control::PeriodicExecutive>(exec, mono_);
   } else {
     stepper_ = std::make_unique<control::PeriodicExecutive>(exec, sim_clock_, &mono_);

@@ -35,6 +35,9 @@ struct MachineOptions {
   runtime::CommandChannel* commands = nullptr;       // e-stop counter, stop/reset, setpoints
   runtime::ServiceNotifier* service = nullptr;       // beat() every cycle (systemd watchdog)
   std::string fault_log_path;                        // JSON lines, written off the RT thread
+  // kCallerThread: the caller already locked the process's memory (mlockall) before the
+  // drives booted, so the loop's set-up does not do it again between priming and cycle 0.
+  bool memory_locked = false;
   // Called from start() with what the real-time set-up obtained (paced machines).
   std::function<void(const control::RealtimeStatus&)> on_realtime;
 };

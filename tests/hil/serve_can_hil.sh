@@ -165,11 +165,24 @@ run_paper() {
 
 # 1. Boot, then idle 5 s: the robot state is published while idle.
 wait_for "$tmp/run.log" "serving: waiting" 60 || fail "no service (boot)"
+boot_done=$(date +%s)
 sleep 5
 kill -0 "$run_pid" 2>/dev/null || fail "the service ended while idle"
 "$dualv" status --lcm "$url" --timeout 10 >"$tmp/status.log" 2>&1 ||
   fail "dualv status found no robot state while the service is idle"
 grep -q "plate X" "$tmp/status.log" || fail "dualv status printed no state"
+# A guest that cannot run the loop near its rate at all (a host loaded by other work: the guest
+# is one virtual CPU that the host freezes as a whole) can show nothing of what the steps
+# below check: skip there (ctest: skipped, with the figure), never widen the configuration.
+rate=$(awk '/rate_hz:/ {print $2; exit}' "$config")
+syncs=$(cat "$tmp"/dump/candump-*.log 2>/dev/null | grep -c " vcan0 080#" || true)
+elapsed=$(( $(date +%s) - boot_done ))
+if [[ -n $rate && $elapsed -gt 0 ]] &&
+   awk -v s="$syncs" -v e="$elapsed" -v r="$rate" 'BEGIN { exit !(s / e < 0.5 * r) }'; then
+  echo "skipped: the guest ran the ${rate} Hz loop at $((syncs / elapsed)) SYNC/s while idle" \
+    "(host too loaded for this guest); run it on a PC with vcan (tests/hil/README.md)"
+  exit 77
+fi
 # The first cycle must come within the drives' RPDO deadline after their priming; a frozen
 # guest can miss it (the service then warns, the drives report EMCY 8250h, the stop latches
 # with the drives disabled). Timing only: a signed reset clears it (retried like the steps).
