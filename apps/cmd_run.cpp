@@ -137,11 +137,7 @@ int serve(const RobotConfig& cfg, Machine& machine, runtime::CommandChannel& com
                    safety::describe_faults(e.latched));
     }
     runtime::VerifiedCommand cmd;
-    if (!commands.try_pop(cmd)) {
-      if (!machine.paced()) continue;  // stepped: the pump above was a cycle
-      std::this_thread::sleep_for(std::chrono::milliseconds(4));
-      continue;
-    }
+    if (!commands.try_pop(cmd)) continue;  // the pump above waited (paced) or ran a cycle
     if (cmd.kind == runtime::CommandKind::kReset) {
       loop.submit(control::LoopCommand::Kind::kReset);
       fmt::print("dualv run: reset (key {}) requested\n", cmd.key_id);
@@ -280,11 +276,21 @@ int run(const RunArgs& args) {
   const bool paced = args.realtime || !args.can.empty() || args.serve;
   control::MonotonicClock mono;
   std::unique_ptr<control::LoopThread> loop_thread;
-  if (paced) {
+  if (paced && args.serve) {
     control::ExecutiveConfig exec = cfg.loop;
     exec.realtime = true;
     loop_thread = std::make_unique<control::LoopThread>(exec, mono, &mono);
     for (const auto& w : loop_thread->launch().warnings) fmt::print(stderr, "dualv run: {}\n", w);
+  }
+  bool memory_locked = false;
+  if (paced && !args.serve) {  // the loop runs in this thread: lock memory before the boot
+    control::ExecutiveConfig exec = cfg.loop;
+    exec.realtime = true;
+    exec.priority = 0;  // SCHED_FIFO when the loop begins, not for the set-up
+    control::PeriodicExecutive early(exec, mono);
+    const control::RealtimeStatus& rt = early.prepare_realtime();
+    memory_locked = rt.memory_locked;
+    for (const auto& w : rt.warnings) fmt::print(stderr, "dualv run: {}\n", w);
   }
   const std::string out = args.out.empty() ? default_out_dir() : args.out;
   std::filesystem::create_directories(out);
@@ -354,7 +360,11 @@ int run(const RunArgs& args) {
     sim_io = std::make_unique<sim::SimActuatorSet>(*plant);
   }
   MachineOptions mo;
-  mo.pacing = paced ? Pacing::kLoopThread : Pacing::kSimulated;
+  // The service's loop has a thread of its own (its supervisor prepares programs while the
+  // loop runs); a one-shot run paces the loop in this thread, a cycle per pump, with the
+  // supervisor's bookkeeping between two cycles (no second thread competing for the CPU).
+  mo.pacing = !paced ? Pacing::kSimulated : args.serve ? Pacing::kLoopThread : Pacing::kCallerThread;
+  mo.memory_locked = memory_locked;
   mo.telemetry = &telemetry;
   mo.commands = commands.get();
   mo.service = &service;

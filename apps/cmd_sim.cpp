@@ -56,6 +56,7 @@ struct SimArgs {
   double status_every = 1.0;
   int rpdo_watchdog = -1;
   double free_run_after = -1.0;
+  bool plant_step_nominal = false;
   bool segmented_upload = false;
   bool upload_without_size = false;
   std::vector<std::string> absent;
@@ -95,6 +96,7 @@ int run_sim(const SimArgs& a) {
   sim::DriveEmulatorConfig emu_cfg = sim::emulator_config_from(can);
   if (a.rpdo_watchdog >= 0)
     emu_cfg.rpdo_watchdog_cycles = static_cast<std::uint32_t>(a.rpdo_watchdog);
+  emu_cfg.plant_step_nominal = a.plant_step_nominal;
   if (a.free_run_after >= 0)
     emu_cfg.free_run_after_ns = static_cast<std::uint64_t>(std::llround(a.free_run_after * 1e9));
   emu_cfg.segmented_upload = a.segmented_upload;
@@ -266,6 +268,9 @@ void register_sim_command(CLI::App& app) {
   cmd->add_option("--free-run-after", args->free_run_after,
                   "Advance the mechanism without SYNC (a dead master) after S seconds of silence "
                   "(0: never; default 0.05)");
+  cmd->add_flag("--plant-step-nominal", args->plant_step_nominal,
+                "Advance the mechanism by 1006h per SYNC, not by the SYNCs' spacing (test guests "
+                "frozen as a whole by their host)");
   cmd->add_flag("--segmented-upload", args->segmented_upload,
                 "Answer every SDO upload with a segmented transfer");
   cmd->add_flag("--upload-without-size", args->upload_without_size,

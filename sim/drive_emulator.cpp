@@ -1020,7 +1020,10 @@ void DriveEmulator::sync(std::uint64_t now_ns, bool real, std::uint64_t stamp_ns
       const std::uint64_t nominal_ns = static_cast<std::uint64_t>(d.u(d.s_period)) * 1000u;
       if (nominal_ns != 0 && dt_ns > nominal_ns + nominal_ns / 2) ++late_syncs_;
     }
-    if (dt_ns > 0) plant_.advance(static_cast<double>(dt_ns) * 1e-9);
+    const std::uint64_t step_ns =
+        real && config_.plant_step_nominal ? static_cast<std::uint64_t>(period_s() * 1e9 + 0.5)
+                                           : dt_ns;
+    if (step_ns > 0) plant_.advance(static_cast<double>(step_ns) * 1e-9);
   }
   plant_started_ = true;
   last_advance_ns_ = now_ns;

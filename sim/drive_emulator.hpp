@@ -136,6 +136,10 @@ struct DriveEmulatorConfig {
   std::uint32_t rpdo_watchdog_cycles = 3;
   // Plant free run without SYNC (see the header comment); 0 = never.
   std::uint64_t free_run_after_ns = 50'000'000;
+  // Advance the mechanism by 1006h per SYNC instead of by the SYNCs' actual spacing: for a
+  // test guest that its host freezes as a whole (tests/hil/README.md), whose clock jumps while
+  // neither the master nor the drives ran; the spacing is then not time a drive saw.
+  bool plant_step_nominal = false;
   // Answer every upload with a segmented transfer (legal, tests the client's path).
   bool segmented_upload = false;
   // A foreign drive's habits (`dualv sim --foreign`): expedited upload responses without

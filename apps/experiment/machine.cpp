@@ -326,11 +326,14 @@ void Machine::pump() {
     if (before_cycle_ && before_base_ >= 0 && next >= before_base_)
       before_cycle_(next - before_base_);
     const control::CycleInfo& info = stepper_->next();
+    if (info.cycle == 0) first_ns_ = info.wake_ns;
     const control::CycleResult r = executor_->step(info);
     stepper_->done();
     if (r == control::CycleResult::kStop) ended_ = true;
   } else if (thread_) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    // The supervisor looks every few cycles (its queues hold seconds): a wake-up a
+    // millisecond would cost the loop's CPU on a small target (and in a test guest).
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   executor_->collect();
 }
@@ -534,7 +537,7 @@ RunResult Machine::follow(std::uint64_t id, const trajectory::Program& program, 
     }
   }
   // The last cycles' samples (paced: pushed right after the event).
-  if (thread_) std::this_thread::sleep_for(std::chrono::milliseconds(3));
+  if (thread_) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   drain();
   result.loop = loop_stats();
   if (failed) {

@@ -72,7 +72,7 @@ class Machine {
   // Returns the loop's report. Idempotent.
   control::RunReport shutdown();
 
-  // The supervisor's view: one cycle (stepped) or ~1 ms (paced); drains the loop's rows
+  // The supervisor's view: one cycle (stepped) or ~5 ms (paced); drains the loop's rows
   // (kept only for the program being recorded) and collects retired references.
   void pump();
   control::Executor& executor() noexcept { return *executor_; }
@@ -84,8 +84,10 @@ class Machine {
   // The loop's timing so far (stepped: also while it runs; paced: after shutdown()).
   control::LoopStatsSummary loop_stats() const;
   std::uint64_t setpoints_ignored() const noexcept;
-  // kLoopThread: the first cycle's wake-up on the monotonic clock [ns] (0 before start()).
-  std::int64_t first_cycle_ns() const noexcept { return thread_ ? thread_->first_cycle_ns() : 0; }
+  // Paced: the first cycle's wake-up on the monotonic clock [ns] (0 before start()).
+  std::int64_t first_cycle_ns() const noexcept {
+    return thread_ ? thread_->first_cycle_ns() : first_ns_;
+  }
 
  private:
   class Hooks;
@@ -114,6 +116,7 @@ class Machine {
   bool started_ = false;
   bool ended_ = false;      // the loop returned (stepped)
   bool shut_down_ = false;
+  std::int64_t first_ns_ = 0;  // stepped: the first cycle's wake-up on the loop clock
   control::RunReport report_;
 };
 

@@ -23,7 +23,9 @@ import argparse
 import re
 import sys
 
-DISABLE_CYCLES = 3  # zero-torque disable cycles `dualv run` sends after a run
+# Zero-torque disable cycles after the loop ends: 3 from the machine (apps/experiment/machine.cpp
+# shutdown), 5 from the drives' shut-down before NMT pre-operational (can.on_exit).
+DISABLE_CYCLES = 3 + 5
 
 
 def parse_config(path):

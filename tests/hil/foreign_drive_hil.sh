@@ -50,7 +50,7 @@ for ((i = 0; i < 100; ++i)); do
   compgen -G "$tmp/dump/candump-*.log" >/dev/null && break
   sleep 0.05
 done
-"$dualv" sim --can vcan0 --config "$config" --foreign --exit-after 600 --status-every 0 \
+"$dualv" sim --can vcan0 --config "$config" --foreign --exit-after 600 --status-every 0 --plant-step-nominal \
   >"$tmp/sim.log" 2>&1 &
 sim_pid=$!
 wait_for "$tmp/sim.log" "drives booted" 10 || fail "dualv sim did not start"

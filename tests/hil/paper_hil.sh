@@ -106,7 +106,7 @@ start_bus() {  # start_bus NAME [SIM_ARGS...]: candump -l and the emulator on vc
     sleep 0.05
   done
   "${sim_prefix[@]}" "$dualv" sim --can vcan0 --config "$config" --exit-after 600 \
-    --status-every 0 --free-run-after 0 "$@" >"$tmp/$name.sim.log" 2>&1 &
+    --status-every 0 --free-run-after 0 --plant-step-nominal "$@" >"$tmp/$name.sim.log" 2>&1 &
   sim_pid=$!
   wait_for "$tmp/$name.sim.log" "drives booted" 10 || fail "$name: dualv sim did not start"
 }

@@ -118,7 +118,7 @@ for ((i = 0; i < 100; ++i)); do
   sleep 0.05
 done
 # shellcheck disable=SC2046
-$(fifo 90) "$dualv" sim --can vcan0 --config "$config" --status-every 0 --free-run-after 0 \
+$(fifo 90) "$dualv" sim --can vcan0 --config "$config" --status-every 0 --free-run-after 0 --plant-step-nominal \
   >"$tmp/sim.log" 2>&1 &
 sim_pid=$!
 wait_for "$tmp/sim.log" "drives booted" 20 || fail "dualv sim did not start"
