@@ -92,7 +92,14 @@ int serve(const RobotConfig& cfg, Machine& machine, runtime::CommandChannel& com
         ok ? std::string()
            : fmt::format("cycle {} (t = {:.3f} s): {}{}", e.cycle, e.t, control::to_string(e.status),
                          e.latched ? " (" + safety::describe_faults(e.latched) + ")" : "");
-    fmt::print("dualv run: {} {}{}\n", what, ok ? "done" : "STOPPED", ok ? "" : ": " + failure);
+    std::string counts;
+    if (current.name == kStreamProgram) {
+      const control::LoopSnapshot snap = loop.snapshot();
+      counts = fmt::format("; setpoints: {} followed, {} refused by the loop, {} refused on receipt",
+                           snap.stream_accepted, snap.stream_refused, commands.setpoints_refused());
+    }
+    fmt::print("dualv run: {} {}{}{}\n", what, ok ? "done" : "STOPPED", ok ? "" : ": " + failure,
+               counts);
     const std::string name = std::filesystem::path(what).filename().string();
     service.status(ok ? fmt::format("waiting for start (last: {} done)", name)
                       : fmt::format("stopped: {}: {}; waiting for a signed reset", name, failure));

@@ -306,6 +306,13 @@ CycleResult Executor::step(const CycleInfo& info) noexcept {
   s.duration = cycle_.program_duration();
   s.reference = reference_id();
   s.estops_seen = current_epoch();
+  if (const trajectory::StreamingReference* ref = cycle_.stream();
+      ref && mode_ == LoopMode::kStream) {
+    stream_accepted_ = ref->accepted();
+    stream_refused_ = ref->refused();
+  }
+  s.stream_accepted = stream_accepted_;
+  s.stream_refused = stream_refused_;
   snapshot_.write(s);
 
   // 4. Shutdown: once nothing is followed and the torque is off.

@@ -110,6 +110,8 @@ struct LoopSnapshot {
   double duration = 0.0;          // the program's duration [s] (0: none)
   std::uint64_t reference = 0;    // id followed (0: none)
   std::uint64_t estops_seen = 0;  // e-stops the loop latched
+  // The last stream followed: setpoints its reference took and refused (kept after its end).
+  std::uint64_t stream_accepted = 0, stream_refused = 0;
 };
 
 class Executor;
@@ -226,6 +228,7 @@ class Executor {
   std::int64_t settle_cycles_ = 0;
   int injected_misses_ = 0;
   std::uint64_t cycle_reference_ = 0;
+  std::uint64_t stream_accepted_ = 0, stream_refused_ = 0;
 };
 
 }  // namespace dualv::control
