@@ -57,6 +57,25 @@ struct RunArgs {
   bool serve = false;
 };
 
+// The drives as the machine sees them before they are booted: nothing to read or write until
+// attach() hands over the booted ones (so the machine's set-up happens before the boot).
+class DrivesToCome final : public drivers::ActuatorSet {
+ public:
+  explicit DrivesToCome(int n) : n_(n) {}
+  void attach(drivers::ActuatorSet& drives) noexcept { inner_ = &drives; }
+  int size() const noexcept override { return n_; }
+  drivers::IoStatus read(drivers::ActuatorFeedback& fb) noexcept override {
+    return inner_ ? inner_->read(fb) : drivers::IoStatus::kNotReady;
+  }
+  drivers::IoStatus write(const drivers::ActuatorCommand& c) noexcept override {
+    return inner_ ? inner_->write(c) : drivers::IoStatus::kNotReady;
+  }
+
+ private:
+  int n_;
+  drivers::ActuatorSet* inner_ = nullptr;
+};
+
 // The program name of `dualv start` that starts a streaming run instead of a program file.
 constexpr const char* kStreamProgram = "stream";
 
@@ -338,6 +357,29 @@ int run(const RunArgs& args) {
   // Ctrl-C: a controlled stop (SS1), not a dropped robot; the idle service ends cleanly.
   install_stop_signal_handlers(args.serve);
 
+  // The machine: the in-process simulation or the drives, and the one loop that owns them.
+  std::unique_ptr<sim::Plant> plant;
+  std::unique_ptr<sim::SimActuatorSet> sim_io;
+  if (args.can.empty()) {
+    plant = std::make_unique<sim::Plant>(cfg.model, cfg.plant);
+    plant->reset(cfg.model.home);
+    sim_io = std::make_unique<sim::SimActuatorSet>(*plant);
+  }
+  MachineOptions mo;
+  // The service's loop has a thread of its own (its supervisor prepares programs while the
+  // loop runs); a one-shot run paces the loop in this thread, a cycle per pump, with the
+  // supervisor's bookkeeping between two cycles (no second thread competing for the CPU).
+  mo.pacing = !paced ? Pacing::kSimulated : args.serve ? Pacing::kLoopThread : Pacing::kCallerThread;
+  mo.memory_locked = memory_locked;
+  mo.telemetry = &telemetry;
+  mo.commands = commands.get();
+  mo.service = &service;
+  mo.fault_log_path = out + "/faults.jsonl";
+  // The machine is made before the drives boot (its set-up allocates, and under mlockall
+  // every new page costs), over a stand-in that the booted drives then fill.
+  DrivesToCome to_come(cfg.model.n);
+  Machine machine(cfg, args.can.empty() ? static_cast<drivers::ActuatorSet&>(*sim_io) : to_come,
+                  mo, plant.get(), std::move(loop_thread));
   // The drives boot last, right before their loop starts: their RPDO deadline and heartbeat
   // consumer run from the last priming cycle on.
   std::uint64_t rpdo_deadline_ns = 0;
@@ -355,31 +397,12 @@ int run(const RunArgs& args) {
     opts.log = [](const std::string& line) { fmt::print("  {}\n", line); };
     fmt::print("dualv run: booting the drives on {}\n", args.can);
     drives = drivers::open_canopen_drives(can, opts);
+    to_come.attach(drives->actuators());
     primed_ns = mono.now_ns();
   }
 
-  // The machine: the in-process simulation or the drives, and the one loop that owns them.
-  std::unique_ptr<sim::Plant> plant;
-  std::unique_ptr<sim::SimActuatorSet> sim_io;
-  if (!drives) {
-    plant = std::make_unique<sim::Plant>(cfg.model, cfg.plant);
-    plant->reset(cfg.model.home);
-    sim_io = std::make_unique<sim::SimActuatorSet>(*plant);
-  }
-  MachineOptions mo;
-  // The service's loop has a thread of its own (its supervisor prepares programs while the
-  // loop runs); a one-shot run paces the loop in this thread, a cycle per pump, with the
-  // supervisor's bookkeeping between two cycles (no second thread competing for the CPU).
-  mo.pacing = !paced ? Pacing::kSimulated : args.serve ? Pacing::kLoopThread : Pacing::kCallerThread;
-  mo.memory_locked = memory_locked;
-  mo.telemetry = &telemetry;
-  mo.commands = commands.get();
-  mo.service = &service;
-  mo.fault_log_path = out + "/faults.jsonl";
   // Frames sent before the loop (boot, priming): the bus report below separates them.
   const std::uint64_t syncs_before = drives ? drives->actuators().counters().sync_sent : 0;
-  Machine machine(cfg, drives ? static_cast<drivers::ActuatorSet&>(drives->actuators()) : *sim_io,
-                  mo, plant.get(), std::move(loop_thread));
   machine.start();
   if (drives) {
     // The drives' RPDO deadline ran from the last priming cycle to the loop's first.

@@ -296,10 +296,12 @@ void Machine::start() {
     drain_ = std::make_unique<Drain>(executor_->safety().log(), options_);
     while (executor_->snapshot().cycle < 0 && thread_->running()) pump();
   } else {
-    drain_ = std::make_unique<Drain>(executor_->safety().log(), options_);
     stepper_->begin();
-    if (options_.on_realtime) options_.on_realtime(stepper_->realtime_status());
     pump();  // the first cycle: the pose is known from here on
+    // After it: a new thread's stack is locked and faulted in under mlockall (slow on a small
+    // target), and the drives' deadlines run from the priming on.
+    drain_ = std::make_unique<Drain>(executor_->safety().log(), options_);
+    if (options_.on_realtime) options_.on_realtime(stepper_->realtime_status());
   }
 }
 
