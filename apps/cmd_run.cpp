@@ -57,25 +57,6 @@ struct RunArgs {
   bool serve = false;
 };
 
-// The drives as the machine sees them before they are booted: nothing to read or write until
-// attach() hands over the booted ones (so the machine's set-up happens before the boot).
-class DrivesToCome final : public drivers::ActuatorSet {
- public:
-  explicit DrivesToCome(int n) : n_(n) {}
-  void attach(drivers::ActuatorSet& drives) noexcept { inner_ = &drives; }
-  int size() const noexcept override { return n_; }
-  drivers::IoStatus read(drivers::ActuatorFeedback& fb) noexcept override {
-    return inner_ ? inner_->read(fb) : drivers::IoStatus::kNotReady;
-  }
-  drivers::IoStatus write(const drivers::ActuatorCommand& c) noexcept override {
-    return inner_ ? inner_->write(c) : drivers::IoStatus::kNotReady;
-  }
-
- private:
-  int n_;
-  drivers::ActuatorSet* inner_ = nullptr;
-};
-
 // The program name of `dualv start` that starts a streaming run instead of a program file.
 constexpr const char* kStreamProgram = "stream";
 

@@ -56,7 +56,7 @@ class Backend {
 
  protected:
   void make_machine(const RobotConfig& cfg, drivers::ActuatorSet& drives, Pacing pacing,
-                    sim::Plant* plant, bool memory_locked = false) {
+                    sim::Plant* plant, bool memory_locked = false, bool start = true) {
     io_ = std::make_unique<safety::FaultInjector>(drives);
     MachineOptions mo;
     mo.pacing = pacing;
@@ -65,7 +65,7 @@ class Backend {
       for (const auto& w : rt.warnings) fmt::print(stderr, "dualv selftest: {}\n", w);
     };
     machine_ = std::make_unique<Machine>(cfg, *io_, mo, plant);
-    machine_->start();
+    if (start) machine_->start();
   }
   std::unique_ptr<safety::FaultInjector> io_;
   std::unique_ptr<Machine> machine_;
@@ -89,7 +89,7 @@ class SimBackend final : public Backend {
 // between two cycles.
 class CanBackend final : public Backend {
  public:
-  CanBackend(const RobotConfig& cfg, const std::string& iface) {
+  CanBackend(const RobotConfig& cfg, const std::string& iface) : to_come_(cfg.model.n) {
     drivers::CanConfig can = drivers::load_can_config_file(cfg.path);
     // The slow part of the real-time set-up (mlockall) before the drives boot: their RPDO
     // deadline and heartbeat consumer run from the last priming cycle on.
@@ -98,9 +98,12 @@ class CanBackend final : public Backend {
     control::MonotonicClock clock;
     control::PeriodicExecutive early(exec, clock);
     const bool locked = early.prepare_realtime().memory_locked;
+    // The machine is set up before the boot, over a stand-in the booted drives fill.
+    make_machine(cfg, to_come_, Pacing::kCallerThread, nullptr, locked, false);
     drivers_ = drivers::open_canopen_drives(
         can, {iface, cfg.period(), [](const std::string& s) { fmt::print("  {}\n", s); }});
-    make_machine(cfg, drivers_->actuators(), Pacing::kCallerThread, nullptr, locked);
+    to_come_.attach(drivers_->actuators());
+    machine_->start();
   }
   ~CanBackend() override {
     machine_.reset();  // the loop ends: drives disabled; then as can.on_exit says
@@ -109,6 +112,7 @@ class CanBackend final : public Backend {
   const drivers::CanopenActuatorSet& canopen() const { return drivers_->actuators(); }
 
  private:
+  DrivesToCome to_come_;
   std::unique_ptr<drivers::CanopenDrives> drivers_;
 };
 

@@ -27,6 +27,25 @@
 
 namespace dualv::apps {
 
+// The drives as the machine sees them before they are booted: nothing to read or write until
+// attach() hands over the booted ones (so the machine's set-up happens before the boot).
+class DrivesToCome final : public drivers::ActuatorSet {
+ public:
+  explicit DrivesToCome(int n) : n_(n) {}
+  void attach(drivers::ActuatorSet& drives) noexcept { inner_ = &drives; }
+  int size() const noexcept override { return n_; }
+  drivers::IoStatus read(drivers::ActuatorFeedback& fb) noexcept override {
+    return inner_ ? inner_->read(fb) : drivers::IoStatus::kNotReady;
+  }
+  drivers::IoStatus write(const drivers::ActuatorCommand& c) noexcept override {
+    return inner_ ? inner_->write(c) : drivers::IoStatus::kNotReady;
+  }
+
+ private:
+  int n_;
+  drivers::ActuatorSet* inner_ = nullptr;
+};
+
 enum class Pacing : std::uint8_t { kSimulated = 0, kLoopThread, kCallerThread };
 
 struct MachineOptions {
