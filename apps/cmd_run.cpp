@@ -86,17 +86,18 @@ int serve(const RobotConfig& cfg, Machine& machine, runtime::CommandChannel& com
   std::uint64_t estops = commands.estop_requests();
   auto end_of = [&](const control::LoopEvent& e, bool ok) {
     if (e.id == 0 || e.id != current.id) return;
-    const std::string what = current.name == kStreamProgram ? std::string("stream")
-                                                           : current.name;
+    const std::string what = current.name == kStreamProgram ? std::string("stream") : current.name;
     const std::string failure =
         ok ? std::string()
-           : fmt::format("cycle {} (t = {:.3f} s): {}{}", e.cycle, e.t, control::to_string(e.status),
+           : fmt::format("cycle {} (t = {:.3f} s): {}{}", e.cycle, e.t,
+                         control::to_string(e.status),
                          e.latched ? " (" + safety::describe_faults(e.latched) + ")" : "");
     std::string counts;
     if (current.name == kStreamProgram) {
       const control::LoopSnapshot snap = loop.snapshot();
-      counts = fmt::format("; setpoints: {} followed, {} refused by the loop, {} refused on receipt",
-                           snap.stream_accepted, snap.stream_refused, commands.setpoints_refused());
+      counts =
+          fmt::format("; setpoints: {} followed, {} refused by the loop, {} refused on receipt",
+                      snap.stream_accepted, snap.stream_refused, commands.setpoints_refused());
     }
     fmt::print("dualv run: {} {}{}{}\n", what, ok ? "done" : "STOPPED", ok ? "" : ": " + failure,
                counts);
@@ -136,7 +137,8 @@ int serve(const RobotConfig& cfg, Machine& machine, runtime::CommandChannel& com
       if (e.kind == K::kTorqueOff)
         fmt::print("dualv run: torque off (STO); a signed reset is needed before a start\n");
       if (e.kind == K::kReset) {
-        fmt::print("dualv run: reset accepted: drives disabled, a start command is accepted again\n");
+        fmt::print(
+            "dualv run: reset accepted: drives disabled, a start command is accepted again\n");
         service.status("waiting for start");
       }
       if (e.kind == K::kResetRefused)
@@ -174,8 +176,7 @@ int serve(const RobotConfig& cfg, Machine& machine, runtime::CommandChannel& com
       if (name == kStreamProgram) {
         fmt::print("dualv run: starting stream (key {}): following signed setpoints on {}\n",
                    cmd.key_id, runtime::kSetpointChannel);
-        ref = loop.prepare_stream(cfg.trajectory.streaming, cfg.trajectory.limits.workspace,
-                                  epoch);
+        ref = loop.prepare_stream(cfg.trajectory.streaming, cfg.trajectory.limits.workspace, epoch);
         service.status(fmt::format("streaming (key {})", cmd.key_id));
       } else {
         std::string file = cmd.program;
@@ -301,12 +302,11 @@ int run(const RunArgs& args) {
   }
   const std::string out = args.out.empty() ? default_out_dir() : args.out;
   std::filesystem::create_directories(out);
-  fmt::print(
-      "dualv run: {} ({} segments, {:.2f} s) on {} at {:.0f} Hz{}\n", program_file, program.size(),
-      program.duration(),
-      !args.can.empty() ? "the CANopen drives on " + args.can
-                        : std::string("the in-process simulated Dual-V"),
-      cfg.rate_hz(), paced ? ", paced in real time" : ", simulated time");
+  fmt::print("dualv run: {} ({} segments, {:.2f} s) on {} at {:.0f} Hz{}\n", program_file,
+             program.size(), program.duration(),
+             !args.can.empty() ? "the CANopen drives on " + args.can
+                               : std::string("the in-process simulated Dual-V"),
+             cfg.rate_hz(), paced ? ", paced in real time" : ", simulated time");
   // Telemetry: an LCM log in the output folder (LCM's file provider: no network), or live.
   const std::string log_file = out + "/telemetry.lcmlog";
   runtime::TelemetryPublisher telemetry(args.lcm.empty() ? runtime::log_url(log_file) : args.lcm);
@@ -350,7 +350,9 @@ int run(const RunArgs& args) {
   // The service's loop has a thread of its own (its supervisor prepares programs while the
   // loop runs); a one-shot run paces the loop in this thread, a cycle per pump, with the
   // supervisor's bookkeeping between two cycles (no second thread competing for the CPU).
-  mo.pacing = !paced ? Pacing::kSimulated : args.serve ? Pacing::kLoopThread : Pacing::kCallerThread;
+  mo.pacing = !paced       ? Pacing::kSimulated
+              : args.serve ? Pacing::kLoopThread
+                           : Pacing::kCallerThread;
   mo.memory_locked = memory_locked;
   mo.telemetry = &telemetry;
   mo.commands = commands.get();
@@ -359,8 +361,8 @@ int run(const RunArgs& args) {
   // The machine is made before the drives boot (its set-up allocates, and under mlockall
   // every new page costs), over a stand-in that the booted drives then fill.
   DrivesToCome to_come(cfg.model.n);
-  Machine machine(cfg, args.can.empty() ? static_cast<drivers::ActuatorSet&>(*sim_io) : to_come,
-                  mo, plant.get(), std::move(loop_thread));
+  Machine machine(cfg, args.can.empty() ? static_cast<drivers::ActuatorSet&>(*sim_io) : to_come, mo,
+                  plant.get(), std::move(loop_thread));
   // The drives boot last, right before their loop starts: their RPDO deadline and heartbeat
   // consumer run from the last priming cycle on.
   std::uint64_t rpdo_deadline_ns = 0;

@@ -77,8 +77,8 @@ runtime::StateSample state_sample(const control::CycleRecord& rec, const control
   }
   s.lambda = rec.ref.phase.lambda;
   s.segment = static_cast<std::int32_t>(rec.ref.segment);
-  const bool running = ex.mode() == control::LoopMode::kProgram &&
-                       rec.phase == control::CyclePhase::kRunning;
+  const bool running =
+      ex.mode() == control::LoopMode::kProgram && rec.phase == control::CyclePhase::kRunning;
   s.safety_state = safety::telemetry_state(rec.safety);
   runtime::copy_text(s.safety_text, safety::to_string(rec.safety.state));
   s.status_flags = (simulated ? M::FLAG_SIMULATED : 0) | (running ? M::FLAG_PROGRAM_RUNNING : 0) |
@@ -247,9 +247,8 @@ class Machine::Drain {
 };
 
 // --- the machine ----------------------------------------------------------------------------
-Machine::Machine(const RobotConfig& config, drivers::ActuatorSet& io,
-                 const MachineOptions& options, sim::Plant* plant,
-                 std::unique_ptr<control::LoopThread> launched)
+Machine::Machine(const RobotConfig& config, drivers::ActuatorSet& io, const MachineOptions& options,
+                 sim::Plant* plant, std::unique_ptr<control::LoopThread> launched)
     : config_(config), io_(io), options_(options), plant_(plant) {
   if (options.pacing == Pacing::kSimulated && plant == nullptr)
     throw std::invalid_argument("a machine on drives is paced by the clock (MachineOptions)");
@@ -449,8 +448,8 @@ RunResult Machine::follow(std::uint64_t id, const trajectory::Program& program, 
       stream ? std::min(total_cycles, std::max<std::int64_t>(options.max_stream_rows, 1))
              : total_cycles));
   // Longest the supervisor waits: enabling, the reference, settling and a full SS1.
-  const std::int64_t bound = total_cycles +
-                             std::llround((2.0 + config_.safety.ss1.max_time + 1.0) / period) + 1;
+  const std::int64_t bound =
+      total_cycles + std::llround((2.0 + config_.safety.ss1.max_time + 1.0) / period) + 1;
   const std::uint64_t ignored_before = hooks_->ignored();
   const std::int64_t progress_every = std::max<std::int64_t>(1, std::llround(0.5 / period));
 

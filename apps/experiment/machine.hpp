@@ -113,8 +113,9 @@ class Machine {
   class Drain;
   // Prepares and starts a reference; retries while the robot moved since the preparation.
   // Returns its id; throws with the reason when the loop refuses it.
-  std::uint64_t take(const std::function<std::unique_ptr<control::PreparedReference>(
-                         std::uint64_t epoch)>& prepare);
+  std::uint64_t take(
+      const std::function<std::unique_ptr<control::PreparedReference>(std::uint64_t epoch)>&
+          prepare);
   RunResult follow(std::uint64_t id, const trajectory::Program& program, double duration,
                    const Variant& variant, const RunOptions& options, bool stream);
 
@@ -133,7 +134,7 @@ class Machine {
   std::function<void(std::int64_t)> before_cycle_;  // RunOptions::before_cycle (stepped)
   std::int64_t before_base_ = -1;                   // its cycle 0 on the loop's count
   bool started_ = false;
-  bool ended_ = false;      // the loop returned (stepped)
+  bool ended_ = false;  // the loop returned (stepped)
   bool shut_down_ = false;
   std::int64_t first_ns_ = 0;  // stepped: the first cycle's wake-up on the loop clock
   control::RunReport report_;

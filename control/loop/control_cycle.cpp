@@ -213,8 +213,7 @@ CycleStatus ControlCycle::step(drivers::ActuatorSet& io, CycleRecord& rec) noexc
   trajectory::StreamingReference* stream = active_->stream ? &*active_->stream : nullptr;
   const trajectory::SampleStatus ss =
       stream ? stream->step(moving, rec.ref) : active_->sequencer->sample(t_, rec.ref);
-  if (stream && phase_ == CyclePhase::kRunning && !stream->active())
-    phase_ = CyclePhase::kHolding;
+  if (stream && phase_ == CyclePhase::kRunning && !stream->active()) phase_ = CyclePhase::kHolding;
   if (phase_ == CyclePhase::kRunning && ss == trajectory::SampleStatus::kFinished)
     phase_ = CyclePhase::kHolding;
 
@@ -259,8 +258,8 @@ CycleStatus ControlCycle::finish(drivers::ActuatorSet& io, CycleRecord& rec,
   if (active_ && st != safety::SafetyState::kOperational) phase_ = CyclePhase::kStopped;
   if (active_ || stopping) {
     rec.phase = phase_;
-    if (rec.status == CycleStatus::kOk && (active_ ? st != safety::SafetyState::kOperational
-                                                   : stopping))
+    if (rec.status == CycleStatus::kOk &&
+        (active_ ? st != safety::SafetyState::kOperational : stopping))
       rec.status = CycleStatus::kSafetyStop;
   }
   rec.safety = safety_.report();

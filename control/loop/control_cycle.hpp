@@ -176,7 +176,7 @@ class ControlCycle {
   Controller controller_;
   model::Data seed_data_;
   bool seeded_ = false;
-  PreparedReference* active_ = nullptr;        // the reference followed (none: idle)
+  PreparedReference* active_ = nullptr;       // the reference followed (none: idle)
   std::unique_ptr<PreparedReference> owned_;  // start() / start_streaming() only
   CyclePhase phase_ = CyclePhase::kIdle;
   std::int64_t cycle_ = 0;

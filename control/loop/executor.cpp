@@ -21,9 +21,7 @@ const char* to_string(LoopMode m) noexcept {
   return "unknown";
 }
 
-const char* to_string(IdleMode m) noexcept {
-  return m == IdleMode::kHold ? "hold" : "disabled";
-}
+const char* to_string(IdleMode m) noexcept { return m == IdleMode::kHold ? "hold" : "disabled"; }
 
 const char* to_string(RefuseReason r) noexcept {
   switch (r) {
@@ -73,7 +71,6 @@ std::uint64_t Executor::current_epoch() const noexcept {
 }
 
 std::uint64_t Executor::estop_epoch() const noexcept { return current_epoch(); }
-
 
 void Executor::request_estop(safety::StopSource source) noexcept {
   own_estops_.fetch_add(1, std::memory_order_acq_rel);
@@ -237,8 +234,8 @@ void Executor::after_step() noexcept {
   const safety::SafetyState st = cycle_.safety().state();
   const bool stop = st == safety::SafetyState::kSs1 || st == safety::SafetyState::kSto;
   PreparedReference* active = cycle_.active();
-  if (active && (cycle_.phase() == CyclePhase::kStopped ||
-                 rec_.status == CycleStatus::kEnableTimeout)) {
+  if (active &&
+      (cycle_.phase() == CyclePhase::kStopped || rec_.status == CycleStatus::kEnableTimeout)) {
     // The safety filter stopped the reference (or its drives never enabled): it is abandoned;
     // the filter carries the stop out (SS1 brakes without a reference).
     emit(LoopEvent::Kind::kStopped, active->id);
@@ -316,9 +313,9 @@ CycleResult Executor::step(const CycleInfo& info) noexcept {
   snapshot_.write(s);
 
   // 4. Shutdown: once nothing is followed and the torque is off.
-  if (shutting_down_ && (mode_ == LoopMode::kIdle ||
-                         (mode_ == LoopMode::kSafeStop &&
-                          cycle_.safety().state() == safety::SafetyState::kSto))) {
+  if (shutting_down_ &&
+      (mode_ == LoopMode::kIdle ||
+       (mode_ == LoopMode::kSafeStop && cycle_.safety().state() == safety::SafetyState::kSto))) {
     emit(LoopEvent::Kind::kLoopEnded, 0);
     return CycleResult::kStop;
   }

@@ -6,7 +6,8 @@
 // SCHED_FIFO, CPU affinity and mlockall (prepare_realtime: slow, and to this thread only; the
 // process's other threads keep normal scheduling) and then waits. go() hands it the executor
 // and the first cycle follows at once, so the time between priming the drives and the first
-// cycle is a thread wake-up, not a set-up (docs/architecture.md: the drives' RPDO deadline is running).
+// cycle is a thread wake-up, not a set-up (docs/architecture.md: the drives' RPDO deadline is
+// running).
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>

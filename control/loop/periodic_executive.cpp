@@ -54,9 +54,9 @@ ExecutiveConfig read_executive_config(YamlReader& loop) {
   if (loop.has("lock_memory")) c.lock_memory = loop.boolean("lock_memory");
   if (loop.has("idle")) {
     const std::string idle = loop.string("idle");
-    loop.require(idle == "disabled" || idle == "hold", "idle",
-                 "must be disabled (drives disabled at 0 N m) or hold (hold the final pose), got " +
-                     idle);
+    loop.require(
+        idle == "disabled" || idle == "hold", "idle",
+        "must be disabled (drives disabled at 0 N m) or hold (hold the final pose), got " + idle);
     c.idle_hold = idle == "hold";
   }
   if (loop.has("stats_resolution_us"))

@@ -47,8 +47,8 @@ struct ExecutiveConfig {
 // Reads a `loop:` map: rate_hz (required), deadline_fraction (0.05..1,
 // default 1), priority (0..99, default 80), cpu (-1.., default -1),
 // lock_memory (default true), stats_resolution_us (default 1),
-// stats_range_ms (default 20), idle (disabled | hold, default disabled). Problems are recorded in the reader's sink
-// with their key paths; unknown keys are rejected.
+// stats_range_ms (default 20), idle (disabled | hold, default disabled). Problems are recorded in
+// the reader's sink with their key paths; unknown keys are rejected.
 ExecutiveConfig read_executive_config(YamlReader& loop);
 
 // What set-up obtained; warnings say what to fix on the target.

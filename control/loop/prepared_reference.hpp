@@ -24,12 +24,12 @@ enum class ReferenceKind : std::uint8_t { kProgram = 0, kStream, kHold };
 const char* to_string(ReferenceKind k) noexcept;
 
 struct PreparedReference {
-  ReferenceKind kind = ReferenceKind::kProgram;            // RT
-  std::optional<trajectory::Sequencer> sequencer;          // RT: kProgram
-  std::optional<trajectory::StreamingReference> stream;    // RT: kStream, kHold
-  model::Pose start = model::Pose::Zero();                 // RT: the pose it begins at
-  bool projection = true;                                  // RT: controller switches (eq. 20)
-  bool feedforward = true;                                 //     and the computed feedforward
+  ReferenceKind kind = ReferenceKind::kProgram;          // RT
+  std::optional<trajectory::Sequencer> sequencer;        // RT: kProgram
+  std::optional<trajectory::StreamingReference> stream;  // RT: kStream, kHold
+  model::Pose start = model::Pose::Zero();               // RT: the pose it begins at
+  bool projection = true;                                // RT: controller switches (eq. 20)
+  bool feedforward = true;                               //     and the computed feedforward
   double settle_time = 0.2;  // RT: [s] held at the end before the loop reports it finished
   // RT: e-stops counted (Executor::estop_epoch) when the start was asked for. The loop refuses
   // the reference when any came since: an e-stop during preparation is never lost.

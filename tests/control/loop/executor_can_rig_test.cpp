@@ -75,8 +75,9 @@ TEST(ExecutorOnCan, IdlesFiveSecondsWithTheShippedConfigThenRunsThePaperProgram)
       if (f.id >= 0x201 && f.id <= 0x204 && f.dlc >= 4) {
         const auto c = fw::decode_rpdo1(f);
         ASSERT_TRUE(c.ok());
-        max_torque = std::max(max_torque, std::abs(fw::per_mille_to_nm(
-                                              c->target_torque, can.drives[f.id - 0x201].rated_torque)));
+        max_torque = std::max(
+            max_torque,
+            std::abs(fw::per_mille_to_nm(c->target_torque, can.drives[f.id - 0x201].rated_torque)));
       }
     }
   };
@@ -96,7 +97,8 @@ TEST(ExecutorOnCan, IdlesFiveSecondsWithTheShippedConfigThenRunsThePaperProgram)
     ex.collect();
   };
   auto has = [&](LoopEvent::Kind k) {
-    return std::any_of(events.begin(), events.end(), [&](const LoopEvent& e) { return e.kind == k; });
+    return std::any_of(events.begin(), events.end(),
+                       [&](const LoopEvent& e) { return e.kind == k; });
   };
   const int idle_cycles = static_cast<int>(5.0 / robot().period());
   for (int k = 0; k < idle_cycles; ++k) step();
@@ -104,15 +106,15 @@ TEST(ExecutorOnCan, IdlesFiveSecondsWithTheShippedConfigThenRunsThePaperProgram)
   EXPECT_EQ(ex.snapshot().safety, safety::SafetyState::kDisabled) << "stopped while idle";
   EXPECT_EQ(ex.snapshot().latched, 0u);
   EXPECT_EQ(syncs, idle_cycles);  // a SYNC every cycle while idle
-  for (int i = 0; i < 4; ++i) {  // the drives saw nothing wrong while the host idled
+  for (int i = 0; i < 4; ++i) {   // the drives saw nothing wrong while the host idled
     const sim::EmulatedDriveCounters& c = rig.emulator().status(i).counters;
     EXPECT_EQ(c.emcy_sent, 0u) << "drive " << i;
     EXPECT_EQ(c.deadline_trips, 0u) << "drive " << i;
     EXPECT_EQ(c.heartbeat_losses, 0u) << "drive " << i;
   }
 
-  const std::uint64_t id = ex.start(
-      ex.prepare_program(paper(), robot().trajectory.rebase, ex.estop_epoch()));
+  const std::uint64_t id =
+      ex.start(ex.prepare_program(paper(), robot().trajectory.rebase, ex.estop_epoch()));
   for (int k = 0; k < 20000 && !has(LoopEvent::Kind::kFinished) && !has(LoopEvent::Kind::kStopped);
        ++k)
     step();

@@ -8,8 +8,8 @@
 
 #include <atomic>
 #include <chrono>
-#include <thread>
 #include <memory>
+#include <thread>
 #include <vector>
 
 #include "safety/fault_injector.hpp"
@@ -243,7 +243,7 @@ TEST(Executor, AnEstopWhileRunningIsSs1ThenStoThenResetAndRunAgain) {
   const std::uint64_t id = r.start_paper();
   ASSERT_NE(r.until(K::kStarted, id, 2), nullptr);
   for (int k = 0; k < 20000 && !(r.executor.record().phase == CyclePhase::kRunning &&
-                                   r.executor.record().t > 1.5);
+                                 r.executor.record().t > 1.5);
        ++k)
     r.step();
   r.executor.request_estop(safety::StopSource::kSignal);
@@ -273,9 +273,8 @@ TEST(Executor, StopIsSs1ForAProgramAndANormalEndForAStream) {
   r.executor.submit(LoopCommand::Kind::kReset);
   ASSERT_NE(r.until(K::kReset, 0, 10), nullptr);
 
-  auto stream = r.executor.prepare_stream(robot().trajectory.streaming,
-                                          robot().trajectory.limits.workspace,
-                                          r.executor.estop_epoch());
+  auto stream = r.executor.prepare_stream(
+      robot().trajectory.streaming, robot().trajectory.limits.workspace, r.executor.estop_epoch());
   const std::uint64_t sid = r.executor.start(std::move(stream));
   ASSERT_NE(r.until(K::kStarted, sid, 2), nullptr);
   EXPECT_EQ(r.executor.mode(), LoopMode::kStream);
@@ -304,8 +303,8 @@ TEST(Executor, RefusesAStartWhileBusyOrWhenTheRobotMovedSincePreparation) {
   ASSERT_NE(r.until(K::kFinished, a), nullptr);
   r.steps(300);
   // Prepared at one pose, taken after the plate was moved 5 mm (e.g. by hand, disabled).
-  auto ref = r.executor.prepare_program(paper(), robot().trajectory.rebase,
-                                        r.executor.estop_epoch());
+  auto ref =
+      r.executor.prepare_program(paper(), robot().trajectory.rebase, r.executor.estop_epoch());
   model::Pose moved = r.executor.snapshot().pose();
   moved.x() += 0.005;
   r.plant.reset(moved);
@@ -347,7 +346,8 @@ TEST(Executor, ABusErrorOrAnInvalidEstimateStopsTheProgram) {
     const LoopEvent* e = r.find(K::kStopped, id);
     ASSERT_NE(e, nullptr) << bus;
     EXPECT_EQ(e->status, bus ? CycleStatus::kIoError : CycleStatus::kEstimateFailed);
-    EXPECT_EQ(r.executor.record().status, bus ? CycleStatus::kIoError : CycleStatus::kEstimateFailed);
+    EXPECT_EQ(r.executor.record().status,
+              bus ? CycleStatus::kIoError : CycleStatus::kEstimateFailed);
     EXPECT_EQ(r.executor.snapshot().mode, LoopMode::kSafeStop);
   }
 }
@@ -399,8 +399,8 @@ TEST(Executor, ShutdownStopsAMovingRobotFirstThenEnds) {
 TEST(Executor, CyclesAllocateNothingIdleRunningOrStopping) {
   LoopRig r;
   r.steps(2);
-  auto ref = r.executor.prepare_program(paper(), robot().trajectory.rebase,
-                                        r.executor.estop_epoch());
+  auto ref =
+      r.executor.prepare_program(paper(), robot().trajectory.rebase, r.executor.estop_epoch());
   r.events.reserve(1000);
   r.faults_logged.reserve(1000);
   const std::uint64_t id = r.executor.start(std::move(ref));
