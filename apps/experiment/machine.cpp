@@ -371,7 +371,7 @@ std::uint64_t Machine::take(
 }
 
 std::uint64_t Machine::begin(const trajectory::Program& program, const Variant& variant,
-                             double settle_time) {
+                             double settle_time, trajectory::Program* rebased) {
   if (!started_) start();
   const trajectory::Program timed = trajectory::with_timing(program, variant.timing);
   return take([&](std::uint64_t epoch) {
@@ -380,46 +380,23 @@ std::uint64_t Machine::begin(const trajectory::Program& program, const Variant& 
     ref->feedforward = variant.feedforward;
     ref->settle_time = settle_time;
     ref->name = variant.name;
+    if (rebased) *rebased = ref->sequencer->program();  // before the loop owns it
     return ref;
   });
 }
 
 RunResult Machine::run(const trajectory::Program& program, const Variant& variant,
                        const RunOptions& options) {
-  before_cycle_ = options.before_cycle;
-  struct Clear {
-    Machine& m;
-    ~Clear() {
-      m.before_cycle_ = nullptr;
-      m.before_base_ = -1;
-    }
-  } clear{*this};
-  if (!started_) start();
-  const trajectory::Program timed = trajectory::with_timing(program, variant.timing);
-  std::unique_ptr<trajectory::Program> rebased;
-  const std::uint64_t id = take([&](std::uint64_t epoch) {
-    auto ref = executor_->prepare_program(timed, config_.trajectory.rebase, epoch);
-    ref->projection = variant.projection;
-    ref->feedforward = variant.feedforward;
-    ref->settle_time = options.settle_time;
-    ref->name = variant.name;
-    rebased = std::make_unique<trajectory::Program>(ref->sequencer->program());
-    return ref;
-  });
-  return follow(id, *rebased, rebased->duration(), variant, options, false);
+  const BeforeCycleScope scope(*this, options.before_cycle);
+  trajectory::Program rebased;
+  const std::uint64_t id = begin(program, variant, options.settle_time, &rebased);
+  return follow(id, rebased, rebased.duration(), variant, options, false);
 }
 
 RunResult Machine::stream(const RunOptions& options) {
   if (!options.commands)
     throw std::invalid_argument("a streaming run needs a command channel for its setpoints");
-  before_cycle_ = options.before_cycle;
-  struct Clear {
-    Machine& m;
-    ~Clear() {
-      m.before_cycle_ = nullptr;
-      m.before_base_ = -1;
-    }
-  } clear{*this};
+  const BeforeCycleScope scope(*this, options.before_cycle);
   if (!started_) start();
   Variant v = paper_variants().front();
   v.name = "stream";

@@ -82,8 +82,9 @@ class Machine {
                 const RunOptions& options = {});
   // Starts `program` as run() does and returns its reference id at once (the caller pumps
   // and watches the loop itself). Throws when the loop refuses it.
+  // `rebased`, when given, receives the program as the loop follows it.
   std::uint64_t begin(const trajectory::Program& program, const Variant& variant,
-                      double settle_time);
+                      double settle_time, trajectory::Program* rebased = nullptr);
   // Follows the stream of signed setpoints from options.commands (needs it) until a signed
   // stop (hold for settle_time) or a safety stop, or max_stream_time.
   RunResult stream(const RunOptions& options);
@@ -111,6 +112,17 @@ class Machine {
  private:
   class Hooks;
   class Drain;
+  // RunOptions::before_cycle for the duration of one run() / stream().
+  struct BeforeCycleScope {
+    BeforeCycleScope(Machine& m, std::function<void(std::int64_t)> fn) : m_(m) {
+      m_.before_cycle_ = std::move(fn);
+    }
+    ~BeforeCycleScope() {
+      m_.before_cycle_ = nullptr;
+      m_.before_base_ = -1;
+    }
+    Machine& m_;
+  };
   // Prepares and starts a reference; retries while the robot moved since the preparation.
   // Returns its id; throws with the reason when the loop refuses it.
   std::uint64_t take(
