@@ -5,6 +5,7 @@
 # then rebuild with AddressSanitizer + UBSan and run the tests again, rebuild the threaded
 # tests with ThreadSanitizer and run them, and run every libFuzzer target (fuzz/) for a
 # bounded time on its seed corpus (scripts/fuzz.sh; a finding fails the suite).
+# The layer check (scripts/check-layers.sh) runs first: an upward include fails the suite.
 # Usage: scripts/test.sh            (everything)
 #        DUALV_SKIP_ASAN=1 scripts/test.sh   (skip the ASan + UBSan pass)
 #        DUALV_SKIP_TSAN=1 scripts/test.sh   (skip the ThreadSanitizer pass)
@@ -15,6 +16,10 @@ cd "$(dirname "$0")/.."
 jobs=$(nproc)
 
 bash scripts/install-deps.sh
+
+# The layers (docs/architecture.md "Layers"): no include may go up; seconds, so first.
+echo "== layers (scripts/check-layers.sh) =="
+bash scripts/check-layers.sh
 
 echo "== release build (-Werror) =="
 cmake -S . -B build/release -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDUALV_WERROR=ON >/dev/null
