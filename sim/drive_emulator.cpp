@@ -1173,6 +1173,10 @@ void DriveEmulator::inject_encoder_offset(int drive, std::int32_t counts) noexce
   if (drive >= 0 && drive < n_) drives_[static_cast<std::size_t>(drive)]->encoder_offset += counts;
 }
 
+const canopen::ObjectDictionary& DriveEmulator::dictionary(int drive) const noexcept {
+  return drives_[static_cast<std::size_t>(drive)]->dict;
+}
+
 EmulatedDriveStatus DriveEmulator::status(int drive) const noexcept {
   EmulatedDriveStatus s;
   if (drive < 0 || drive >= n_) return s;

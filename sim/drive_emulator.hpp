@@ -110,6 +110,10 @@
 
 namespace dualv::sim {
 
+namespace canopen {
+class ObjectDictionary;
+}
+
 inline constexpr int kMaxEmulatedDrives = model::kMaxChains;
 inline constexpr std::uint8_t kEmulatedPdos = 4;                // RPDO1..4, TPDO1..4
 inline constexpr std::uint8_t kEmulatedConsumerHeartbeats = 2;  // 1016h sub1..2
@@ -265,6 +269,9 @@ class DriveEmulator {
   Plant& plant() noexcept { return plant_; }
   const Plant& plant() const noexcept { return plant_; }
   const DriveEmulatorConfig& config() const noexcept { return config_; }
+  // Drive `drive`'s object dictionary (0..size()-1), as built: what its SDO server answers
+  // (checked against an EDS by sim/canopen/eds_dictionary.hpp).
+  const canopen::ObjectDictionary& dictionary(int drive) const noexcept;
 
  private:
   // One slave: its dictionary and SDO server are the parts of sim/canopen/, the PDO engine,
