@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 
 #include "common/config_error.hpp"
 #include "firmware_if/heartbeat.hpp"
@@ -171,25 +172,24 @@ void check_parameters(CanopenMaster& m, const CanConfig& c, int i) {
   const CanDriveConfig& d = c.drives[static_cast<std::size_t>(i)];
   const std::uint8_t id = d.node_id;
   std::vector<std::string> problems;
-  const std::uint32_t type = m.read(id, fw::od::kDeviceType);
+  std::uint32_t v[std::size(kParameterReads)] = {};
+  for (std::size_t k = 0; k < std::size(kParameterReads); ++k)
+    v[k] = m.read(id, kParameterReads[k]);
+  const auto [type, modes, rated, inc, revs] = v;
   if ((type & 0xFFFFu) != fw::od::kDeviceProfileCia402)
     problems.push_back(fmt::format(
         "can.drives[{}].node_id: node {} is not a CiA 402 drive (1000h device type {:08X}h)", i, id,
         type));
-  const std::uint32_t modes = m.read(id, fw::od::kSupportedDriveModes);
   if ((modes & fw::supported_mode_bit(fw::ModeOfOperation::kCyclicSyncTorque)) == 0)
     problems.push_back(
         fmt::format("can.drives[{}].node_id: node {} does not support cyclic synchronous torque "
                     "(6502h = {:08X}h)",
                     i, id, modes));
-  const std::uint32_t rated = m.read(id, fw::od::kRatedTorque);
   const auto expected_rated = static_cast<std::uint32_t>(std::llround(d.rated_torque * 1000.0));
   if (rated != expected_rated)
     problems.push_back(fmt::format(
         "can.drives[{}].rated_torque: {} N m but node {} reports 6076h = {} mN m ({} N m)", i,
         d.rated_torque, id, rated, rated / 1000.0));
-  const std::uint32_t inc = m.read(id, fw::od::kEncoderIncrements);
-  const std::uint32_t revs = m.read(id, fw::od::kEncoderMotorRevolutions);
   const std::uint32_t cpr = fw::counts_per_rev(inc, revs);
   if (cpr != d.counts_per_revolution)
     problems.push_back(fmt::format(

@@ -34,6 +34,13 @@ namespace dualv::drivers::canopen {
 inline constexpr std::uint8_t kDigitalInputsTpdo = 2;
 inline constexpr fw::PdoLayout kDigitalInputsTpdoLayout{{fw::map_entry(fw::od::kDigitalInputs)}, 1};
 
+// What boot reads from each drive when can.check_drive_parameters is set (step 2a), in this
+// order: device type (CiA 402 profile), supported drive modes (cyclic synchronous torque),
+// rated torque, encoder increments / motor revolutions. `dualv eds-check` checks the same list.
+inline constexpr fw::OdEntry kParameterReads[] = {fw::od::kDeviceType, fw::od::kSupportedDriveModes,
+                                                  fw::od::kRatedTorque, fw::od::kEncoderIncrements,
+                                                  fw::od::kEncoderMotorRevolutions};
+
 // One SDO write of the configuration (value as its raw bit pattern in the entry's size).
 // Writes of a non-mandatory object carry its key in can.objects and its policy: when the
 // drive answers 06020000h (no object), 06090011h (no sub-index) or, for a mapping entry,

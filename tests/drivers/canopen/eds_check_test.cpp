@@ -1,0 +1,166 @@
+// drivers/canopen/eds_check.hpp: the shipped EDS (config/eds/dualv-emulated-drive.eds) has
+// everything the shipped `can:` section needs; each defect a vendor's EDS may have (an
+// object missing, not mappable, of the wrong type or access) is named, and an optional
+// object the drive lacks is reported as skipped with its safety consequence.
+#include "drivers/canopen/eds_check.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "drivers/canopen_config.hpp"
+#include "firmware_if/eds.hpp"
+
+namespace dualv::drivers::canopen {
+namespace {
+
+namespace eds = fw::eds;
+
+eds::Eds shipped() {
+  return eds::read_eds_file(std::string(DUALV_SOURCE_DIR) + "/config/eds/dualv-emulated-drive.eds");
+}
+CanConfig config() {
+  return load_can_config_file(std::string(DUALV_SOURCE_DIR) + "/config/dualv.yaml");
+}
+
+eds::Eds without(eds::Eds e, std::uint16_t index) {
+  e.objects.erase(std::remove_if(e.objects.begin(), e.objects.end(),
+                                 [index](const eds::EdsObject& o) { return o.index == index; }),
+                  e.objects.end());
+  return e;
+}
+eds::EdsEntry& at(eds::Eds& e, std::uint16_t index, std::uint8_t sub) {
+  for (eds::EdsObject& o : e.objects)
+    for (eds::EdsEntry& x : o.entries)
+      if (x.index == index && x.subindex == sub) return x;
+  throw std::logic_error("no such entry in the test EDS");
+}
+
+bool has(const std::vector<std::string>& lines, const std::string& s) {
+  return std::any_of(lines.begin(), lines.end(),
+                     [&s](const std::string& l) { return l.find(s) != std::string::npos; });
+}
+
+TEST(EdsCheck, ShippedEdsBootsWithTheShippedConfiguration) {
+  const eds::Eds e = shipped();
+  const CanConfig c = config();
+  ASSERT_EQ(c.size(), 4);
+  for (int i = 0; i < c.size(); ++i) {
+    const EdsCheckReport r = check_eds(e, c, i);
+    EXPECT_EQ(r.node, c.drives[static_cast<std::size_t>(i)].node_id);
+    EXPECT_TRUE(r.can_boot()) << ::testing::PrintToString(r.problems);
+    EXPECT_TRUE(r.skipped.empty()) << ::testing::PrintToString(r.skipped);
+  }
+}
+
+TEST(EdsCheck, OptionalObjectMissingIsSkipped) {
+  const EdsCheckReport r = check_eds(without(shipped(), 0x60C2), config(), 1);
+  EXPECT_TRUE(r.can_boot()) << ::testing::PrintToString(r.problems);
+  ASSERT_EQ(r.skipped.size(), 1u);
+  EXPECT_EQ(
+      r.skipped[0],
+      "node 2: interpolation_period skipped (optional): 60C2h sub1 (interpolation time period "
+      "value) (interpolation period value (60C2h)) is not in the EDS");
+  EXPECT_TRUE(has(r.notes, "node 2: 60C2h absent"));
+}
+
+TEST(EdsCheck, RequiredObjectMissingIsAProblem) {
+  CanConfig c = config();
+  c.drives[0].objects.interpolation_period = ObjectPolicy::kRequired;
+  const EdsCheckReport r = check_eds(without(shipped(), 0x60C2), c, 0);
+  EXPECT_FALSE(r.can_boot());
+  EXPECT_TRUE(has(r.problems, "node 1: 60C2h sub1 (interpolation time period value)"));
+  EXPECT_TRUE(has(r.problems, "can.objects.interpolation_period is required"));
+  // Off: never written, neither skipped nor a problem.
+  c.drives[0].objects.interpolation_period = ObjectPolicy::kOff;
+  const EdsCheckReport off = check_eds(without(shipped(), 0x60C2), c, 0);
+  EXPECT_TRUE(off.can_boot());
+  EXPECT_TRUE(off.skipped.empty());
+}
+
+TEST(EdsCheck, MandatoryObjectMissingIsAProblem) {
+  const EdsCheckReport r = check_eds(without(shipped(), 0x6060), config(), 0);
+  EXPECT_FALSE(r.can_boot());
+  EXPECT_TRUE(has(r.problems, "node 1: 6060h sub0 (modes of operation)"));
+  EXPECT_TRUE(has(r.problems, "is not in the EDS"));
+}
+
+TEST(EdsCheck, PdoObjectsMustBeMappableWithTheRightAccess) {
+  eds::Eds e = shipped();
+  at(e, 0x6071, 0).pdo_mappable = false;      // RPDO1
+  at(e, 0x6040, 0).access = fw::Access::kRo;  // RPDO1: the master writes it
+  at(e, 0x6040, 0).access_text = "ro";
+  at(e, 0x6041, 0).access = fw::Access::kWo;  // TPDO1: the drive sends it
+  at(e, 0x6041, 0).access_text = "wo";
+  const EdsCheckReport r = check_eds(e, config(), 0);
+  EXPECT_FALSE(r.can_boot());
+  EXPECT_TRUE(has(r.problems, "node 1: 6071h sub0 (target torque) is not PDO-mappable in the EDS"));
+  EXPECT_TRUE(has(r.problems, "but an RPDO carries it"));
+  EXPECT_TRUE(has(r.problems, "node 1: 6040h sub0 (controlword) is ro in the EDS (line"));
+  EXPECT_TRUE(has(r.problems, "): an RPDO needs it writable"));
+  EXPECT_TRUE(has(r.problems, "node 1: 6041h sub0 (statusword) is wo in the EDS (line"));
+  EXPECT_TRUE(has(r.problems, "): a TPDO needs it readable"));
+  EXPECT_EQ(r.problems.size(), 3u) << ::testing::PrintToString(r.problems);
+}
+
+TEST(EdsCheck, WrongDataTypeIsAProblem) {
+  eds::Eds e = shipped();
+  at(e, 0x6064, 0).data_type = 0x0003;  // INTEGER16, mapped as 32 bits
+  const EdsCheckReport r = check_eds(e, config(), 0);
+  EXPECT_TRUE(has(r.problems, "6064h sub0 (position actual value) is INTEGER16 in the EDS (line"));
+  EXPECT_TRUE(has(r.problems, "the stack uses INTEGER32"));
+  EXPECT_TRUE(has(r.problems, "is 16 bits in the EDS"));
+  EXPECT_TRUE(has(r.problems, "mapped as 32"));
+}
+
+TEST(EdsCheck, WrittenObjectMustBeWritable) {
+  eds::Eds e = shipped();
+  at(e, 0x1017, 0).access = fw::Access::kConst;
+  at(e, 0x1017, 0).access_text = "const";
+  const EdsCheckReport r = check_eds(e, config(), 0);
+  ASSERT_EQ(r.problems.size(), 1u) << ::testing::PrintToString(r.problems);
+  EXPECT_NE(r.problems[0].find("1017h sub0 (producer heartbeat time (ms)) is const in the EDS"),
+            std::string::npos)
+      << r.problems[0];
+}
+
+TEST(EdsCheck, ParameterReadsAndProfile) {
+  eds::Eds e = shipped();
+  at(e, 0x1000, 0).default_value = "0x00020191";  // profile 401, not 402
+  at(e, 0x6502, 0).default_value = "0x00000100";  // CSV (bit 8), not CST (bit 9)
+  const EdsCheckReport r = check_eds(without(e, 0x6076), config(), 0);
+  EXPECT_TRUE(has(r.problems, "1000h DefaultValue 00020191h"));
+  EXPECT_TRUE(has(r.problems, "is not a CiA 402 device"));
+  EXPECT_TRUE(has(r.problems, "6502h DefaultValue 00000100h"));
+  EXPECT_TRUE(has(r.problems, "6076h sub0 (motor rated torque (mN m)) (read at boot"));
+  // Without check_drive_parameters nothing is read.
+  CanConfig c = config();
+  c.check_drive_parameters = false;
+  EXPECT_TRUE(check_eds(without(e, 0x6076), c, 0).can_boot());
+}
+
+TEST(EdsCheck, SafetyConsequences) {
+  // 6007h required (shipped): a drive without it cannot boot.
+  const EdsCheckReport required = check_eds(without(shipped(), 0x6007), config(), 0);
+  EXPECT_TRUE(has(required.problems, "can.objects.abort_connection is required"));
+  // Optional: skipped, the heartbeat consumer 1016h is what stops the drive.
+  CanConfig c = config();
+  c.drives[0].objects.abort_connection = ObjectPolicy::kOptional;
+  const EdsCheckReport optional = check_eds(without(shipped(), 0x6007), c, 0);
+  EXPECT_TRUE(optional.can_boot()) << ::testing::PrintToString(optional.problems);
+  EXPECT_TRUE(has(optional.skipped, "node 1: abort_connection skipped (optional)"));
+  EXPECT_TRUE(has(optional.notes, "1016h (required) is what stops it"));
+  // Neither 6007h nor 1016h: nothing stops the drive when the host is gone.
+  c.drives[0].objects.consumer_heartbeat = ObjectPolicy::kOptional;
+  const EdsCheckReport neither = check_eds(without(without(shipped(), 0x6007), 0x1016), c, 0);
+  EXPECT_TRUE(has(neither.problems, "neither 6007h nor 1016h sub1"));
+  // The e-stop input: required by default.
+  const EdsCheckReport din = check_eds(without(shipped(), 0x60FD), config(), 0);
+  EXPECT_TRUE(has(din.problems, "60FDh sub0 (digital inputs) (mapped into a TPDO at 1A01h)"));
+  EXPECT_TRUE(has(din.problems, "can.objects.digital_inputs is required"));
+}
+
+}  // namespace
+}  // namespace dualv::drivers::canopen
