@@ -8,7 +8,10 @@
 // moves in real time whatever period the master runs at. A foreign drive (a vendor stack
 // this project did not write) is emulated with --upload-without-size (expedited SDO
 // uploads e=1, s=0) and --absent OBJ (the drive lacks that object, e.g. 0x60C2); --foreign
-// sets both (uploads without size, no 60C2h). Exits cleanly (status 0) on SIGINT/SIGTERM,
+// sets both (uploads without size, no 60C2h). --eds FILE takes the drives' objects from an
+// EDS (sim/canopen/eds_dictionary.hpp: what the EDS lacks is absent, 1018h identity from its
+// defaults; an EDS entry the emulator does not implement alike is refused). Exits cleanly (status
+// 0) on SIGINT/SIGTERM,
 // --exit-after or
 // --exit-when-idle. Test hooks: --estop-after presses the e-stop input of every drive,
 // --fault-after raises a drive fault with an EMCY code, and so does SIGUSR1 (at a moment
@@ -22,6 +25,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -31,6 +35,8 @@
 #include "control/config/model_config.hpp"
 #include "drivers/can/socketcan_bus.hpp"
 #include "drivers/canopen_config.hpp"
+#include "firmware_if/eds.hpp"
+#include "sim/canopen/eds_dictionary.hpp"
 #include "sim/drive_emulator.hpp"
 #include "sim/plant.hpp"
 
@@ -61,6 +67,7 @@ struct SimArgs {
   bool upload_without_size = false;
   std::vector<std::string> absent;
   bool foreign = false;
+  std::string eds;  // --eds FILE: the drives' object dictionary from an EDS (CiA 306)
 };
 
 void install_signal_handlers() {
@@ -115,6 +122,16 @@ int run_sim(const SimArgs& a) {
     }
     emu_cfg.absent_objects.push_back(static_cast<std::uint16_t>(idx));
   }
+  std::optional<fw::eds::Eds> eds;
+  if (!a.eds.empty()) {
+    eds = fw::eds::read_eds_file(a.eds);  // EdsError: file:line: reason
+    const sim::canopen::EdsDrive d =
+        sim::canopen::drive_from_eds(*eds, emu_cfg.vendor_id, emu_cfg.product_code);
+    emu_cfg.absent_objects.insert(emu_cfg.absent_objects.end(), d.absent_objects.begin(),
+                                  d.absent_objects.end());
+    emu_cfg.vendor_id = d.vendor_id;
+    emu_cfg.product_code = d.product_code;
+  }
   unsigned long fault_code = 0;
   try {
     fault_code = std::stoul(a.fault_code, nullptr, 0);
@@ -143,6 +160,16 @@ int run_sim(const SimArgs& a) {
     return 2;
   }
   sim::DriveEmulator& emu = *emu_owner;
+  if (eds) {
+    // Every drive is built alike: drive 0 has the entries of all.
+    std::vector<std::string> diff = sim::canopen::differences(*eds, emu.dictionary(0));
+    if (!diff.empty()) {
+      fmt::print(stderr, "dualv sim: --eds {}: the emulator cannot be this drive:\n", a.eds);
+      for (const std::string& d : diff) fmt::print(stderr, "  {}\n", d);
+      return 2;
+    }
+    fmt::print("dualv sim: object dictionary from {} ({} objects)\n", a.eds, eds->objects.size());
+  }
 
   install_signal_handlers();
   std::string nodes;
@@ -279,6 +306,10 @@ void register_sim_command(CLI::App& app) {
                   "An object the drives lack (SDO abort 06020000h), e.g. 0x60C2; repeatable");
   cmd->add_flag("--foreign", args->foreign,
                 "Emulate a foreign drive: --upload-without-size --absent 0x60C2");
+  cmd->add_option("--eds", args->eds,
+                  "Take the drives' object dictionary from an EDS (CiA 306), e.g. "
+                  "config/eds/dualv-emulated-drive.eds: objects it lacks are absent")
+      ->check(CLI::ExistingFile);
   cmd->callback([args] { exit_code() = run_sim(*args); });
 }
 

@@ -23,5 +23,6 @@ void register_sim_command(CLI::App& app);
 void register_selftest_command(CLI::App& app);
 void register_config_command(CLI::App& app);
 void register_identify_command(CLI::App& app);
+void register_eds_check_command(CLI::App& app);
 
 }  // namespace dualv::apps

@@ -32,6 +32,7 @@ int main(int argc, char** argv) {
   dualv::apps::register_selftest_command(app);
   dualv::apps::register_config_command(app);
   dualv::apps::register_identify_command(app);
+  dualv::apps::register_eds_check_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -59,6 +59,8 @@ struct Checker {
   int drive;
   std::uint8_t node;
   EdsCheckReport r;
+  // Objects (can.objects keys) whose remaining writes are not looked at: skipped, or a
+  // required one already reported missing (boot stops at its first absent write).
   std::set<std::string> skipped_keys;
   std::set<std::pair<std::uint16_t, std::uint8_t>> mapped_done;
 
@@ -73,11 +75,11 @@ struct Checker {
       }
       return;
     }
-    if (w != nullptr && w->object != nullptr)
+    if (w != nullptr && w->object != nullptr && skipped_keys.insert(w->object).second)
       r.problems.push_back(fmt::format(
           "node {}: {} (can.objects.{} is required; make it optional to boot without it)", node,
           text, w->object));
-    else
+    else if (w == nullptr || w->object == nullptr)
       r.problems.push_back(fmt::format("node {}: {}", node, text));
   }
 
@@ -89,7 +91,7 @@ struct Checker {
   const eds::EdsEntry* find(const fw::OdEntry& want, const ConfigWrite* w, const char* role) {
     const eds::EdsEntry* e = eds.entry(want.index, want.subindex);
     if (e == nullptr) {
-      missing(w, fmt::format("{} ({}) is not in the EDS", describe(want), role));
+      missing(w, fmt::format("{} is not in the EDS ({})", describe(want), role));
       return nullptr;
     }
     if (e->type() != want.type)
@@ -102,7 +104,7 @@ struct Checker {
 
   void check_write(const ConfigWrite& w) {
     if (skipping(w)) return;
-    const eds::EdsEntry* e = find(w.entry, &w, w.why);
+    const eds::EdsEntry* e = find(w.entry, &w, "boot writes it");
     if (e == nullptr) return;
     if (!writable(e->access))
       r.problems.push_back(
@@ -149,7 +151,7 @@ struct Checker {
   void check_reads() {
     if (!c.check_drive_parameters) return;
     for (const fw::OdEntry& want : kParameterReads) {
-      const eds::EdsEntry* e = find(want, nullptr, "read at boot: can.check_drive_parameters");
+      const eds::EdsEntry* e = find(want, nullptr, "boot reads it: can.check_drive_parameters");
       if (e == nullptr) continue;
       if (!readable(e->access))
         r.problems.push_back(fmt::format("node {}: {} is wo in the EDS (line {}): boot reads it",

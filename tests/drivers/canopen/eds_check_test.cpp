@@ -62,7 +62,7 @@ TEST(EdsCheck, OptionalObjectMissingIsSkipped) {
   EXPECT_EQ(
       r.skipped[0],
       "node 2: interpolation_period skipped (optional): 60C2h sub1 (interpolation time period "
-      "value) (interpolation period value (60C2h)) is not in the EDS");
+      "value) is not in the EDS (boot writes it)");
   EXPECT_TRUE(has(r.notes, "node 2: 60C2h absent"));
 }
 
@@ -73,6 +73,7 @@ TEST(EdsCheck, RequiredObjectMissingIsAProblem) {
   EXPECT_FALSE(r.can_boot());
   EXPECT_TRUE(has(r.problems, "node 1: 60C2h sub1 (interpolation time period value)"));
   EXPECT_TRUE(has(r.problems, "can.objects.interpolation_period is required"));
+  EXPECT_EQ(r.problems.size(), 1u) << ::testing::PrintToString(r.problems);  // boot stops there
   // Off: never written, neither skipped nor a problem.
   c.drives[0].objects.interpolation_period = ObjectPolicy::kOff;
   const EdsCheckReport off = check_eds(without(shipped(), 0x60C2), c, 0);
@@ -134,7 +135,8 @@ TEST(EdsCheck, ParameterReadsAndProfile) {
   EXPECT_TRUE(has(r.problems, "1000h DefaultValue 00020191h"));
   EXPECT_TRUE(has(r.problems, "is not a CiA 402 device"));
   EXPECT_TRUE(has(r.problems, "6502h DefaultValue 00000100h"));
-  EXPECT_TRUE(has(r.problems, "6076h sub0 (motor rated torque (mN m)) (read at boot"));
+  EXPECT_TRUE(
+      has(r.problems, "6076h sub0 (motor rated torque (mN m)) is not in the EDS (boot reads it"));
   // Without check_drive_parameters nothing is read.
   CanConfig c = config();
   c.check_drive_parameters = false;
@@ -158,7 +160,8 @@ TEST(EdsCheck, SafetyConsequences) {
   EXPECT_TRUE(has(neither.problems, "neither 6007h nor 1016h sub1"));
   // The e-stop input: required by default.
   const EdsCheckReport din = check_eds(without(shipped(), 0x60FD), config(), 0);
-  EXPECT_TRUE(has(din.problems, "60FDh sub0 (digital inputs) (mapped into a TPDO at 1A01h)"));
+  EXPECT_TRUE(has(din.problems,
+                  "60FDh sub0 (digital inputs) (mapped into a TPDO at 1A01h) is not in the EDS"));
   EXPECT_TRUE(has(din.problems, "can.objects.digital_inputs is required"));
 }
 
