@@ -52,7 +52,7 @@ say "built $(basename "$deb")"
 contents=$(dpkg-deb --contents "$deb")
 for f in ./usr/bin/dualv ./etc/dualv/dualv.yaml ./etc/default/dualv \
   ./usr/lib/systemd/system/dualv.service ./usr/lib/systemd/network/80-can0.network \
-  ./usr/share/doc/dualv/DEPLOYMENT.md; do
+  ./usr/share/doc/dualv/DEPLOYMENT.md ./usr/share/dualv/eds/dualv-emulated-drive.eds; do
   grep -q " $f\$" <<<"$contents" || fail "$f missing from the package"
 done
 # Captured first: with pipefail, grep -q closing the pipe early would fail the pipeline.
@@ -91,6 +91,12 @@ dualv=/usr/bin/dualv
 version=$("$dualv" --version)
 say "installed: $version"
 [[ "$version" == dualv* ]] || fail "unexpected --version output: $version"
+
+# The shipped EDS against the installed configuration (/etc/dualv/dualv.yaml).
+eds=/usr/share/dualv/eds/dualv-emulated-drive.eds
+(cd / && env -u DUALV_CONFIG "$dualv" eds-check "$eds" >/dev/null) ||
+  fail "dualv eds-check $eds with /etc/dualv/dualv.yaml failed"
+say "dualv eds-check $eds: ok"
 
 # The installed binary must look for its configuration in /etc/dualv, never in
 # the source tree it was built from.
