@@ -92,7 +92,8 @@ std::optional<std::int64_t> evaluate(std::string_view text, std::uint8_t node, b
       sum += node;
     } else {
       const auto n = parse_number(term);
-      if (!n) return std::nullopt;
+      // Far outside every CiA 301 integer: refused before the sum could overflow.
+      if (!n || *n > (std::int64_t{1} << 40) || *n < -(std::int64_t{1} << 40)) return std::nullopt;
       sum += *n;
     }
     if (plus == std::string_view::npos) return sum;

@@ -49,7 +49,8 @@ const char* consequence(const std::string& key) {
     return "the drive keeps its default option code (check it in its manual)";
   if (key == "cycle_period") return "1006h absent: the drive cannot monitor the SYNC period";
   if (key == "interpolation_period")
-    return "60C2h absent: the drive takes the SYNC period from the SYNCs themselves";
+    return "60C2h absent: the drive uses its own default interpolation period for cyclic "
+           "synchronous torque";
   return "";
 }
 

@@ -253,6 +253,10 @@ TEST(EdsMalformed, BadNumber) {
   EXPECT_NE(std::string(big.what()).find("does not fit UNSIGNED8"), std::string::npos);
   const std::string mapping = replace(kLists + kObjects, "PDOMapping=1", "PDOMapping=2");
   EXPECT_EQ(refused(mapping).line(), line_of(mapping, "PDOMapping=2"));
+  // Huge terms are refused, not summed into an overflow.
+  const std::string huge =
+      replace(kLists + kObjects, "$NODEID+0x200", "0x7FFFFFFFFFFFFFFF+0x7FFFFFFFFFFFFFFF");
+  EXPECT_EQ(refused(huge).line(), line_of(huge, "0x7FFFFFFFFFFFFFFF+"));
   const std::string limit = replace(kLists + kObjects, "LowLimit=-32768", "LowLimit=$NODEID");
   EXPECT_EQ(refused(limit).line(), line_of(limit, "LowLimit=$NODEID"));
 }
