@@ -10,12 +10,11 @@
 // uploads e=1, s=0) and --absent OBJ (the drive lacks that object, e.g. 0x60C2); --foreign
 // sets both (uploads without size, no 60C2h). --eds FILE takes the drives' objects from an
 // EDS (sim/canopen/eds_dictionary.hpp: what the EDS lacks is absent, 1018h identity from its
-// defaults; an EDS entry the emulator does not implement alike is refused). Exits cleanly (status
-// 0) on SIGINT/SIGTERM,
-// --exit-after or
-// --exit-when-idle. Test hooks: --estop-after presses the e-stop input of every drive,
-// --fault-after raises a drive fault with an EMCY code, and so does SIGUSR1 (at a moment
-// a test chooses, e.g. while a program runs: drive --fault-drive, code --fault-code).
+// defaults; an EDS entry the emulator does not implement alike is refused). Exits cleanly
+// (status 0) on SIGINT/SIGTERM, --exit-after or --exit-when-idle. Test hooks: --estop-after
+// presses the e-stop input of every drive, --fault-after raises a drive fault with an EMCY
+// code, and so does SIGUSR1 (at a moment a test chooses, e.g. while a program runs: drive
+// --fault-drive, code --fault-code).
 #include <fmt/core.h>
 
 #include <CLI/CLI.hpp>
