@@ -346,6 +346,26 @@ TEST(MasterEmulatorBroadcast, BootsRunsAndTheWireIsTheLayout) {
     EXPECT_EQ(r.emulator().status(i).counters.watchdog_trips, 0u) << i;
   }
   EXPECT_EQ(r.emulator().status(1).target_torque, -10);  // -0.5 N m of 50 N m rated
+
+  // The host's stale-feedback check is on the position TPDO1: drive 2 stops sending TPDOs,
+  // and the very next read() finds it not fresh (its statusword is still within its bound).
+  r.emulator().drop_tpdos(1, DriveEmulator::kForever);
+  for (int k = 0; k < 2; ++k) {
+    set->read(f);
+    set->write(cmd);
+    r.step(c.sync_period_ns);
+    clk.set_ns(r.now_ns());
+  }
+  set->read(f);
+  EXPECT_FALSE(f.drive[1].fresh);
+  EXPECT_TRUE(f.drive[0].fresh);
+  // The drives' RPDO deadline is the event timer of the broadcast RPDO (1401h sub5 =
+  // can.rpdo_deadline, 10 ms): the host goes silent, every drive trips it once.
+  for (int k = 0; k < 15; ++k) {
+    r.step(c.sync_period_ns);
+    clk.set_ns(r.now_ns());
+  }
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(r.emulator().status(i).counters.deadline_trips, 1u) << i;
 }
 
 TEST(MasterEmulatorBroadcast, DriveWithoutDummyMappingRefusedByName) {

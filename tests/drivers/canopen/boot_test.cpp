@@ -431,7 +431,9 @@ TEST(Boot, BroadcastLayoutFeedbackPdos) {
   const std::vector<ConfigWrite> p = boot_writes(c, 2);
   for (const auto& x : p) EXPECT_NE(x.entry.index, 0x1802);
   for (const auto& x : p)
-    if (x.entry.index == 0x1A00 && x.entry.subindex == 0 && x.value != 0) EXPECT_EQ(x.value, 2u);
+    if (x.entry.index == 0x1A00 && x.entry.subindex == 0 && x.value != 0) {
+      EXPECT_EQ(x.value, 2u);
+    }
 }
 
 TEST(Boot, DriveRefusingDummyMappingNamedWithTheObject) {
