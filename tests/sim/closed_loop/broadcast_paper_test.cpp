@@ -49,7 +49,7 @@ class RigWaiter final : public drivers::canopen::Waiter {
   InProcessCanRig& rig_;
 };
 
-struct Run {
+struct PaperRun {
   bool finished = false;
   std::string why;
   double max_error = 0.0;  // [m] |(x, y) true - desired| while the program runs
@@ -60,7 +60,7 @@ struct Run {
   std::array<bool, 4> enabled_seen{};  // Operation enabled seen in a statusword per drive
 };
 
-Run run_paper(fw::RpdoLayoutKind layout) {
+PaperRun run_paper(fw::RpdoLayoutKind layout) {
   drivers::CanConfig can = drivers::load_can_config_file(robot().path);
   can.rpdo_layout = layout;
   InProcessCanRig rig(robot().model, robot().plant, can, 4096);
@@ -71,7 +71,7 @@ Run run_paper(fw::RpdoLayoutKind layout) {
   ec.cycle = {robot().period(), 2.0, robot().safety};
   control::Executor ex(robot().model, robot().control, ec, *drives);
 
-  Run r;
+  PaperRun r;
   const bool broadcast = layout == fw::RpdoLayoutKind::kBroadcast;
   auto watch = [&] {
     fw::CanFrame f;
@@ -149,8 +149,8 @@ Run run_paper(fw::RpdoLayoutKind layout) {
 }
 
 TEST(BroadcastLayoutOnTheRig, PaperProgramTracksAsThePerDriveLayout) {
-  const Run per_drive = run_paper(fw::RpdoLayoutKind::kPerDrive);
-  const Run broadcast = run_paper(fw::RpdoLayoutKind::kBroadcast);
+  const PaperRun per_drive = run_paper(fw::RpdoLayoutKind::kPerDrive);
+  const PaperRun broadcast = run_paper(fw::RpdoLayoutKind::kBroadcast);
   ASSERT_TRUE(per_drive.finished) << per_drive.why;
   ASSERT_TRUE(broadcast.finished) << broadcast.why;
   // The loop tracks at all (README: 0.43 mm with the shipped configuration) ...
@@ -160,7 +160,7 @@ TEST(BroadcastLayoutOnTheRig, PaperProgramTracksAsThePerDriveLayout) {
   EXPECT_NEAR(broadcast.max_error, per_drive.max_error, 0.05 * per_drive.max_error);
   EXPECT_NEAR(broadcast.rms_error, per_drive.rms_error, 0.05 * per_drive.rms_error);
   // The wire is the configured layout, no torque above the limit, every drive seen enabled.
-  for (const Run* r : {&per_drive, &broadcast}) {
+  for (const PaperRun* r : {&per_drive, &broadcast}) {
     EXPECT_EQ(r->wrong_frames, 0);
     EXPECT_LE(r->max_wire_torque, robot().safety.torque.max + 1e-9);
     EXPECT_GT(r->max_wire_torque, 1.0);
