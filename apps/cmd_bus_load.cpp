@@ -62,28 +62,30 @@ void register_bus_load_command(CLI::App& app) {
       "Worst-case CAN bits per cycle and bus load of the `can:` configuration, and of every "
       "layout (per-drive RPDO, broadcast RPDO, CAN FD) side by side");
   static std::string config;
-  static fw::BusParams params;
+  static fw::BusParams params;  // only the options given override the configuration
   add_config_option(*cmd, config);
+  static CLI::Option* statusword_inhibit = nullptr;
+  static CLI::Option* controlword_inhibit = nullptr;
   cmd->add_option("--data-bitrate", params.data_bitrate, "CAN FD data-phase bit rate [bit/s]")
       ->capture_default_str()
       ->check(CLI::Range(1'000'000u, 12'000'000u));
-  cmd->add_option("--statusword-inhibit", params.statusword_inhibit_s,
-                  "broadcast layout: the statusword event TPDO's inhibit time [s]")
-      ->capture_default_str()
-      ->check(CLI::Range(1e-4, 6.5535));
-  cmd->add_option("--controlword-inhibit", params.controlword_inhibit_s,
-                  "broadcast layout: the controlword event RPDO's inhibit time [s]")
-      ->capture_default_str()
-      ->check(CLI::Range(1e-4, 6.5535));
+  statusword_inhibit = cmd->add_option("--statusword-inhibit", params.statusword_inhibit_s,
+                                       "broadcast layout: the statusword event TPDO's inhibit "
+                                       "time [s] (default: can.statusword_inhibit)");
+  statusword_inhibit->check(CLI::Range(1e-4, 6.5535));
+  controlword_inhibit = cmd->add_option("--controlword-inhibit", params.controlword_inhibit_s,
+                                        "broadcast layout: the controlword event RPDO's inhibit "
+                                        "time [s] (default: can.controlword_inhibit)");
+  controlword_inhibit->check(CLI::Range(1e-4, 6.5535));
   cmd->callback([] {
     const std::string path = resolve_config(config);
     const drivers::CanConfig can = drivers::load_can_config(YamlReader::load_file(path)["can"]);
-    const fw::BusLoadReport report = drivers::bus_load_report(can);
+    const fw::LayoutLoad report = drivers::bus_load_report(can);
     fmt::print("{}\n\n", drivers::format_bus_load(can, report));
-    fw::BusParams p = params;
-    p.drives = static_cast<std::uint8_t>(can.drives.size());
-    p.nominal_bitrate = can.bitrate;
-    p.sync_bytes = can.sync_bytes();
+    fw::BusParams p = drivers::bus_params(can);
+    p.data_bitrate = params.data_bitrate;
+    if (*statusword_inhibit) p.statusword_inhibit_s = params.statusword_inhibit_s;
+    if (*controlword_inhibit) p.controlword_inhibit_s = params.controlword_inhibit_s;
     fmt::print("{}", layouts_table(p, can.cycle_hz()));
     exit_code() = report.fits ? 0 : 1;
   });

@@ -8,7 +8,8 @@
 // moves in real time whatever period the master runs at. A foreign drive (a vendor stack
 // this project did not write) is emulated with --upload-without-size (expedited SDO
 // uploads e=1, s=0) and --absent OBJ (the drive lacks that object, e.g. 0x60C2); --foreign
-// sets both (uploads without size, no 60C2h). --eds FILE takes the drives' objects from an
+// sets both (uploads without size, no 60C2h); --no-dummy-mapping: drives that cannot map dummy
+// entries (the broadcast layout, issue 15). --eds FILE takes the drives' objects from an
 // EDS (sim/canopen/eds_dictionary.hpp: what the EDS lacks is absent, 1018h identity from its
 // defaults; an EDS entry the emulator does not implement alike is refused). Exits cleanly
 // (status 0) on SIGINT/SIGTERM, --exit-after or --exit-when-idle. Test hooks: --estop-after
@@ -64,6 +65,7 @@ struct SimArgs {
   bool plant_step_nominal = false;
   bool segmented_upload = false;
   bool upload_without_size = false;
+  bool no_dummy_mapping = false;
   std::vector<std::string> absent;
   bool foreign = false;
   std::string eds;  // --eds FILE: the drives' object dictionary from an EDS (CiA 306)
@@ -107,6 +109,7 @@ int run_sim(const SimArgs& a) {
     emu_cfg.free_run_after_ns = static_cast<std::uint64_t>(std::llround(a.free_run_after * 1e9));
   emu_cfg.segmented_upload = a.segmented_upload;
   emu_cfg.upload_without_size = a.upload_without_size || a.foreign;
+  emu_cfg.refuse_dummy_mapping = a.no_dummy_mapping;
   std::vector<std::string> absent = a.absent;
   if (a.foreign) absent.push_back("0x60C2");
   for (const std::string& o : absent) {
@@ -301,6 +304,9 @@ void register_sim_command(CLI::App& app) {
                 "Answer every SDO upload with a segmented transfer");
   cmd->add_flag("--upload-without-size", args->upload_without_size,
                 "Answer expedited SDO uploads without size indication (e=1, s=0)");
+  cmd->add_flag("--no-dummy-mapping", args->no_dummy_mapping,
+                "Drives that cannot map CiA 301 dummy entries (abort 06040041h): the broadcast "
+                "layout (can.rpdo_layout) is refused at boot");
   cmd->add_option("--absent", args->absent,
                   "An object the drives lack (SDO abort 06020000h), e.g. 0x60C2; repeatable");
   cmd->add_flag("--foreign", args->foreign,

@@ -62,6 +62,11 @@ CanopenActuatorSet::CanopenActuatorSet(CanBus& bus, const canopen::Clock& clock,
       sync_(config.sync_counter_overflow),
       heartbeat_producer_(config.master_node_id, config.master_heartbeat_period_ns) {
   drive_of_node_.fill(-1);
+  // The drive sends its statusword at least every can.statusword_refresh (event timer), a
+  // change at most can.statusword_inhibit late: beyond refresh + stale_cycles it is lost.
+  statusword_bound_cycles_ = static_cast<std::uint32_t>(
+      (config_.statusword_refresh_ns + config_.sync_period_ns - 1) / config_.sync_period_ns +
+      config_.stale_cycles);
   const std::uint64_t now = clock_.now_ns();
   for (int i = 0; i < n_; ++i) {
     const CanDriveConfig& d = config_.drives[static_cast<std::size_t>(i)];
@@ -113,7 +118,13 @@ BusStatus CanopenActuatorSet::send(const fw::CanFrame& f) noexcept {
 
 void CanopenActuatorSet::on_tpdo(int i, const fw::CanFrame& f) noexcept {
   DriveCounters& c = drive_counters_[i];
-  const fw::Result<fw::DriveFeedback> fb = fw::decode_tpdo1(f);
+  fw::Result<fw::DriveFeedback> fb = fw::Error::kWrongDlc;
+  if (config_.rpdo_layout == fw::RpdoLayoutKind::kPerDrive) {
+    fb = fw::decode_tpdo1(f);
+  } else {  // position alone; the statusword comes in TPDO3 (on_statusword_tpdo)
+    const fw::Result<std::int32_t> pos = fw::decode_position_tpdo(f);
+    if (pos) fb = fw::DriveFeedback{statusword_[i], *pos};
+  }
   if (!fb) {
     ++c.malformed;
     return;
@@ -136,6 +147,23 @@ void CanopenActuatorSet::on_tpdo(int i, const fw::CanFrame& f) noexcept {
   if (f.timestamp_ns != 0) tpdo_stamp_[i] = f.timestamp_ns;
 }
 
+void CanopenActuatorSet::on_statusword_tpdo(int i, const fw::CanFrame& f) noexcept {
+  const fw::Result<std::uint16_t> sw = fw::decode_statusword_tpdo(f);
+  if (!sw) {
+    ++drive_counters_[i].malformed;
+    return;
+  }
+  ++drive_counters_[i].statuswords;
+  statusword_[i] = *sw;
+  statusword_seen_[i] = true;
+  cycles_since_statusword_[i] = 0;
+}
+
+bool CanopenActuatorSet::statusword_current(int i) const noexcept {
+  if (config_.rpdo_layout == fw::RpdoLayoutKind::kPerDrive) return true;  // in every TPDO1
+  return statusword_seen_[i] && cycles_since_statusword_[i] <= statusword_bound_cycles_;
+}
+
 void CanopenActuatorSet::dispatch(const fw::CanFrame& f, std::uint64_t now) noexcept {
   const fw::Result<fw::CobIdInfo> info = fw::classify(f);
   if (!info) {
@@ -147,6 +175,11 @@ void CanopenActuatorSet::dispatch(const fw::CanFrame& f, std::uint64_t now) noex
     case fw::Function::kTpdo1:
       if (i < 0) break;
       on_tpdo(i, f);
+      return;
+    case fw::Function::kTpdo3:
+      // The statusword TPDO of the broadcast layout; another TPDO3 is not ours.
+      if (i < 0 || config_.rpdo_layout == fw::RpdoLayoutKind::kPerDrive) break;
+      on_statusword_tpdo(i, f);
       return;
     case fw::Function::kTpdo2: {
       // 60FDh digital inputs (event driven): the e-stop circuit, as the drive sees it.
@@ -245,7 +278,7 @@ IoStatus CanopenActuatorSet::read(ActuatorFeedback& fb) noexcept {
       events_.heartbeat_lost |= bit(i);
       lose(i);
     }
-    fresh_[i] = tpdos_this_cycle_[i] > 0 && !bus_off_;
+    fresh_[i] = tpdos_this_cycle_[i] > 0 && !bus_off_ && statusword_current(i);
     if (fresh_[i]) {
       cycles_since_fresh_[i] = 0;
       ever_fresh_[i] = true;
@@ -273,6 +306,8 @@ IoStatus CanopenActuatorSet::read(ActuatorFeedback& fb) noexcept {
     d.torque_actual = torque_applied_[i];
   }
   sync_sent_last_cycle_ = false;  // a SYNC's answers are expected (and missed) once
+  for (int i = 0; i < n_; ++i)
+    if (cycles_since_statusword_[i] < 0xFFFFFFFFu) ++cycles_since_statusword_[i];
   fb.n = n_;
   fb.cycle = cycle_;
   if (bus_off_) return IoStatus::kBusError;
@@ -323,9 +358,16 @@ IoStatus CanopenActuatorSet::write(const ActuatorCommand& command) noexcept {
     }
   } else {
     for (int i = 0; i < n_ && !bus_off_; ++i) {
+      // On change, at most once per can.controlword_inhibit (a change waits it out, the
+      // torque in the broadcast frame is already what the new state allows); at least once
+      // per can.controlword_refresh.
       const bool changed = !controlword_ok_[i] || sent_[i].controlword != last_controlword_[i];
-      if (changed ||
-          canopen::expired(controlword_sent_ns_[i], now, config_.controlword_refresh_ns)) {
+      const bool inhibited =
+          controlword_ok_[i] &&
+          !canopen::expired(controlword_sent_ns_[i], now, config_.controlword_inhibit_ns);
+      if (inhibited) sent_[i].controlword = last_controlword_[i];  // what the wire carries
+      if (!inhibited && (changed || canopen::expired(controlword_sent_ns_[i], now,
+                                                     config_.controlword_refresh_ns))) {
         const fw::Result<fw::CanFrame> f = fw::encode_controlword_rpdo(
             config_.drives[static_cast<std::size_t>(i)].node_id, sent_[i].controlword);
         if (f && send(*f) == BusStatus::kOk) {
@@ -514,6 +556,9 @@ DriveHealthReport CanopenActuatorSet::health(int i) const noexcept {
     r.health = DriveHealth::kError, r.reason = "EMCY active";
   } else if (d.transition_timed_out()) {
     r.health = DriveHealth::kError, r.reason = "CiA 402 transition timed out";
+  } else if (!statusword_current(i)) {
+    r.health = DriveHealth::kStale,
+    r.reason = "no statusword (TPDO3) within can.statusword_refresh";
   } else if (!ever_fresh_[i] || cycles_since_fresh_[i] >= config_.stale_cycles) {
     r.health = DriveHealth::kStale, r.reason = "no TPDO (position) recently";
   } else if (r.stop_input) {

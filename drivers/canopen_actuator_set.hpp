@@ -14,8 +14,16 @@
 //                      can.controlword_refresh), THEN the SYNC (080h), then the master's
 //                      heartbeat when due.
 //   drives:            apply the RPDO data at SYNC k, sample, answer TPDO1 (transmission
-//                      type 1).
+//                      type 1); broadcast: TPDO1 = position only, and TPDO3 = statusword
+//                      when it changed (at most once per can.statusword_inhibit, at least
+//                      once per can.statusword_refresh).
 //   cycle k+1: read()  gets them.
+//
+// Broadcast layout bounds (issue 15): a drive's state change reaches read() at most
+// statusword_inhibit + 1 cycle after the drive's SYNC sample; a controlword change goes on
+// the wire at most controlword_inhibit after write() asked for it. A drive whose statusword
+// has not come for ceil(statusword_refresh / period) + can.timeouts.stale_cycles cycles is
+// not fresh (its feedback is stale, health STALE), as a missing position TPDO1 is.
 //
 // So feedback is one cycle old by construction, and a target torque sent at k acts from
 // SYNC k. The drives are booted before this class runs (drivers/canopen/boot.hpp,
@@ -50,7 +58,7 @@
 #include "drivers/canopen/waiter.hpp"
 #include "drivers/canopen_config.hpp"
 #include "drivers/cia402_drive.hpp"
-#include "firmware_if/bus_load.hpp"
+#include "firmware_if/bus_layout.hpp"
 #include "firmware_if/nmt.hpp"
 
 namespace dualv::drivers {
@@ -86,6 +94,7 @@ struct DriveCounters {
   std::uint64_t late = 0;          // two different TPDOs in one cycle: the older came late
   std::uint64_t out_of_order = 0;  // a TPDO stamped earlier than one already accepted
   std::uint64_t malformed = 0;     // wrong DLC etc. from the drive's ids
+  std::uint64_t statuswords = 0;   // statusword TPDO3s accepted (broadcast layout)
   std::uint64_t emcys = 0;
   std::uint64_t heartbeat_timeouts = 0;
   std::uint64_t boot_ups = 0;  // unexpected boot-up messages (node reset)
@@ -180,13 +189,17 @@ class CanopenActuatorSet final : public ActuatorSet {
   const Cia402Drive& drive(int i) const noexcept { return drives_[i]; }
   const canopen::HeartbeatConsumer& heartbeat(int i) const noexcept { return heartbeats_[i]; }
   const canopen::EmcyConsumer& emcy(int i) const noexcept { return emcys_[i]; }
-  const fw::BusLoadReport& bus_load() const noexcept { return bus_load_; }
+  const fw::LayoutLoad& bus_load() const noexcept { return bus_load_; }
   const CanConfig& config() const noexcept { return config_; }
   CanBus& bus() noexcept { return bus_; }
 
  private:
   void dispatch(const fw::CanFrame& f, std::uint64_t now) noexcept;
   void on_tpdo(int i, const fw::CanFrame& f) noexcept;
+  void on_statusword_tpdo(int i, const fw::CanFrame& f) noexcept;
+  // Broadcast layout: a statusword came within statusword_bound_cycles_ (always true
+  // per-drive, where every TPDO1 carries it).
+  bool statusword_current(int i) const noexcept;
   void lose(int i) noexcept;
   void latch_bus_off() noexcept;
   BusStatus send(const fw::CanFrame& f) noexcept;
@@ -196,7 +209,7 @@ class CanopenActuatorSet final : public ActuatorSet {
   const canopen::Clock& clock_;
   CanConfig config_;  // copied at set-up; never touched in the cycle but for reading
   int n_ = 0;
-  fw::BusLoadReport bus_load_{};
+  fw::LayoutLoad bus_load_{};
   std::array<std::int8_t, fw::kMaxNodeId + 1> drive_of_node_{};
   std::array<Cia402Drive, kMaxDrives> drives_{};
   std::array<canopen::HeartbeatConsumer, kMaxDrives> heartbeats_{};
@@ -216,6 +229,9 @@ class CanopenActuatorSet final : public ActuatorSet {
   std::array<std::uint64_t, kMaxDrives> controlword_sent_ns_{};  // broadcast layout
   std::array<std::uint16_t, kMaxDrives> last_controlword_{};
   std::array<bool, kMaxDrives> controlword_ok_{};
+  std::array<bool, kMaxDrives> statusword_seen_{};  // broadcast: TPDO3 seen
+  std::array<std::uint32_t, kMaxDrives> cycles_since_statusword_{};
+  std::uint32_t statusword_bound_cycles_ = 0;
   canopen::SyncProducer sync_;
   canopen::HeartbeatProducer heartbeat_producer_;
   bool sync_sent_last_cycle_ = false;

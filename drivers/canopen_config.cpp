@@ -72,7 +72,38 @@ void check(const CanConfig& c, std::vector<std::string>& p) {
   if (c.rpdo_layout == fw::RpdoLayoutKind::kBroadcast && c.drives.size() > fw::kBroadcastMaxDrives)
     add(fmt::format("can.rpdo_layout: broadcast carries at most {} drives in one frame (got {})",
                     fw::kBroadcastMaxDrives, c.drives.size()));
+  if (!(c.max_cyclic_load > 0.0 && c.max_cyclic_load <= c.max_bus_load))
+    add(fmt::format("can.max_cyclic_load: must be in (0, can.max_bus_load = {}] (got {})",
+                    c.max_bus_load, c.max_cyclic_load));
   if (c.controlword_refresh_ns == 0) add("can.controlword_refresh: must be > 0");
+  if (c.controlword_inhibit_ns == 0 || c.controlword_inhibit_ns > c.controlword_refresh_ns)
+    add(
+        fmt::format("can.controlword_inhibit: must be in (0, can.controlword_refresh = {} s] (got "
+                    "{} s)",
+                    to_s(c.controlword_refresh_ns), to_s(c.controlword_inhibit_ns)));
+  // 1802h sub3 is in 100 us units (u16), sub5 in ms (u16) (CiA 301 7.5.2.37).
+  if (c.statusword_inhibit_ns == 0 || c.statusword_inhibit_ns % 100'000 != 0 ||
+      c.statusword_inhibit_ns > 6'553'500'000ull)
+    add(
+        fmt::format("can.statusword_inhibit: must be a multiple of 0.0001 s in [0.0001, 6.5535] s "
+                    "(1800h sub3 is in 100 us) (got {} s)",
+                    to_s(c.statusword_inhibit_ns)));
+  if (c.statusword_refresh_ns == 0 || !whole_ms(c.statusword_refresh_ns) ||
+      c.statusword_refresh_ns > 65'535'000'000ull ||
+      c.statusword_refresh_ns < c.statusword_inhibit_ns)
+    add(
+        fmt::format("can.statusword_refresh: must be whole milliseconds in [can.statusword_inhibit "
+                    "= {} s, 65.535] s (got {} s)",
+                    to_s(c.statusword_inhibit_ns), to_s(c.statusword_refresh_ns)));
+  if (c.rpdo_layout == fw::RpdoLayoutKind::kBroadcast &&
+      c.transition_timeout_ns <=
+          c.controlword_inhibit_ns + c.statusword_inhibit_ns + 2 * c.sync_period_ns)
+    add(fmt::format(
+        "can.timeouts.transition: {} s is too short for the broadcast layout: a CiA 402 "
+        "step may take can.controlword_inhibit + can.statusword_inhibit + 2 cycles = "
+        "{} s",
+        to_s(c.transition_timeout_ns),
+        to_s(c.controlword_inhibit_ns + c.statusword_inhibit_ns + 2 * c.sync_period_ns)));
   if (c.sync_period_ns < 100'000 || c.sync_period_ns > 1'000'000'000)
     add(fmt::format("can.sync.period: must be in [0.0001, 1] s (got {})", to_s(c.sync_period_ns)));
   if (c.sync_counter_overflow == 1 || c.sync_counter_overflow > fw::kSyncCounterOverflowMax)
@@ -199,7 +230,11 @@ CanConfig load_can_config(const YAML::Node& can_node, double safety_torque_max) 
     c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
   else
     r.problem(fmt::format("can.rpdo_layout: must be per_drive or broadcast (got '{}')", layout));
+  c.max_cyclic_load = r.number("max_cyclic_load", c.max_cyclic_load);
   c.controlword_refresh_ns = to_ns(r.number("controlword_refresh", to_s(c.controlword_refresh_ns)));
+  c.controlword_inhibit_ns = to_ns(r.number("controlword_inhibit", to_s(c.controlword_inhibit_ns)));
+  c.statusword_inhibit_ns = to_ns(r.number("statusword_inhibit", to_s(c.statusword_inhibit_ns)));
+  c.statusword_refresh_ns = to_ns(r.number("statusword_refresh", to_s(c.statusword_refresh_ns)));
   {
     YamlReader s = r.child("sync", false);
     c.sync_period_ns = to_ns(s.number("period", to_s(c.sync_period_ns)));
@@ -335,31 +370,46 @@ void check_sync_period(const CanConfig& config, double control_period_s) {
         to_s(config.sync_period_ns), control_period_s)});
 }
 
-fw::BusLoadReport bus_load_report(const CanConfig& config) noexcept {
-  return fw::bus_load_report(static_cast<std::uint8_t>(config.drives.size()), config.rpdo_layout,
-                             config.cycle_hz(), config.bitrate, config.max_bus_load,
-                             config.sync_bytes());
+fw::BusParams bus_params(const CanConfig& c) noexcept {
+  fw::BusParams p;
+  p.drives = static_cast<std::uint8_t>(c.drives.size());
+  p.nominal_bitrate = c.bitrate;
+  p.sync_bytes = c.sync_bytes();
+  p.statusword_inhibit_s = to_s(c.statusword_inhibit_ns);
+  p.controlword_inhibit_s = to_s(c.controlword_inhibit_ns);
+  p.max_cyclic_load = c.max_cyclic_load;
+  p.max_total_load = c.max_bus_load;
+  return p;
 }
 
-std::string format_bus_load(const CanConfig& config, const fw::BusLoadReport& r) {
+fw::LayoutLoad bus_load_report(const CanConfig& config) noexcept {
+  return fw::layout_load(fw::bus_layout_of(config.rpdo_layout), bus_params(config),
+                         config.cycle_hz());
+}
+
+std::string format_bus_load(const CanConfig& config, const fw::LayoutLoad& r) {
   return fmt::format(
-      "CAN bus load: {} drives, {}, SYNC {} B: {} bits/cycle worst case; at {:.1f} Hz and {} "
-      "bit/s: {:.1f} % (limit {:.1f} %); max rate {:.1f} Hz{}",
-      config.drives.size(), fw::to_string(r.layout), config.sync_bytes(), r.bits_per_cycle,
-      config.cycle_hz(), config.bitrate, 100.0 * r.load, 100.0 * config.max_bus_load, r.max_rate_hz,
+      "CAN bus load: {} drives, {} layout, SYNC {} B: {} bits/cycle worst case; at {:.1f} Hz and "
+      "{} bit/s: {:.1f} % cyclic (limit {:.1f} %), {:.1f} % with event PDOs at their inhibit "
+      "times (limit {:.1f} %); max rate {:.1f} Hz{}",
+      config.drives.size(), fw::to_string(r.layout), config.sync_bytes(), r.cyclic_bits.total(),
+      config.cycle_hz(), config.bitrate, 100.0 * r.cyclic_load, 100.0 * config.max_cyclic_load,
+      100.0 * r.total_load, 100.0 * config.max_bus_load, r.max_rate_hz,
       r.fits ? "" : " -- DOES NOT FIT");
 }
 
-fw::BusLoadReport require_bus_load_fits(const CanConfig& config) {
-  const fw::BusLoadReport r = bus_load_report(config);
+fw::LayoutLoad require_bus_load_fits(const CanConfig& config) {
+  const fw::LayoutLoad r = bus_load_report(config);
   if (!r.fits) {
-    const double needed = static_cast<double>(r.bits_per_cycle) * config.cycle_hz();
-    const double usable = config.bitrate * config.max_bus_load;
+    const double needed = static_cast<double>(r.cyclic_bits.total()) * config.cycle_hz();
     throw ConfigError({fmt::format(
-        "can.sync.period: {:.1f} Hz needs {:.0f} bit/s worst case ({} bits/cycle, {}) but the "
-        "bus carries {} bit/s x {:.1f} % = {:.0f} bit/s; lower the rate to at most {:.1f} Hz{}",
-        config.cycle_hz(), needed, r.bits_per_cycle, fw::to_string(r.layout), config.bitrate,
-        100.0 * config.max_bus_load, usable, usable / r.bits_per_cycle,
+        "can.sync.period: {:.1f} Hz with the {} layout needs {:.0f} bit/s worst case ({} "
+        "bits/cycle) on a {} bit/s bus: {:.1f} % cyclic (can.max_cyclic_load {:.1f} %), {:.1f} % "
+        "with event PDOs at their inhibit times (can.max_bus_load {:.1f} %); lower the rate to at "
+        "most {:.1f} Hz{} (dualv bus-load compares the layouts)",
+        config.cycle_hz(), fw::to_string(r.layout), needed, r.cyclic_bits.total(), config.bitrate,
+        100.0 * r.cyclic_load, 100.0 * config.max_cyclic_load, 100.0 * r.total_load,
+        100.0 * config.max_bus_load, r.max_rate_hz,
         config.rpdo_layout == fw::RpdoLayoutKind::kPerDrive ? " or use can.rpdo_layout: broadcast"
                                                             : "")});
   }

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "drivers/actuator_set.hpp"
-#include "firmware_if/bus_load.hpp"
+#include "firmware_if/bus_layout.hpp"
 #include "firmware_if/can_config.hpp"
 #include "firmware_if/cia402.hpp"
 #include "firmware_if/cob_id.hpp"
@@ -54,17 +54,21 @@ void validate(const CanConfig& config);
 // SYNC period differs from the control loop's period (loop.rate_hz).
 void check_sync_period(const CanConfig& config, double control_period_s);
 
-// ---- bus load (docs/architecture.md "CAN contract") -----------------------------------------------
-// Worst-case bits per cycle for the configured drives, layout, SYNC and rate.
-fw::BusLoadReport bus_load_report(const CanConfig& config) noexcept;
+// ---- bus load (docs/architecture.md "CAN contract", issue 15) --------------------------------
+// The model is firmware_if/bus_layout.hpp (one owner); these give it the configuration.
+fw::BusParams bus_params(const CanConfig& config) noexcept;
+// Worst case of the configured layout at the SYNC rate: cyclic frames, and event PDOs
+// (broadcast layout) at their inhibit-time bound.
+fw::LayoutLoad bus_load_report(const CanConfig& config) noexcept;
 // Printable, e.g.
-//   "CAN bus load: 4 drives, per-drive RPDO (...), SYNC 0 B: 895 bits/cycle worst case;
-//    at 1000 Hz and 1000000 bit/s: 89.5 % (limit 95.0 %); max rate 1117.3 Hz"
-std::string format_bus_load(const CanConfig& config, const fw::BusLoadReport& report);
-// Throws ConfigError with both numbers when the worst case exceeds max_bus_load, e.g.
-//   "can.sync.period: 2000 Hz needs 1790000 bit/s worst case (895 bits/cycle) but the bus
-//    carries 1000000 bit/s x 95 % = 950000 bit/s; lower the rate below 1061.5 Hz or use
-//    rpdo_layout: broadcast"
-fw::BusLoadReport require_bus_load_fits(const CanConfig& config);
+//   "CAN bus load: 4 drives, per_drive layout, SYNC 0 B: 895 bits/cycle worst case; at
+//    1000.0 Hz and 1000000 bit/s: 89.5 % cyclic (limit 90.0 %), 89.5 % with event PDOs at
+//    their inhibit times (limit 95.0 %); max rate 1005.6 Hz"
+std::string format_bus_load(const CanConfig& config, const fw::LayoutLoad& report);
+// Throws ConfigError with the numbers when the worst case exceeds can.max_cyclic_load or
+// can.max_bus_load, e.g. "can.sync.period: 2000.0 Hz with the per_drive layout needs 1790000
+// bit/s worst case (895 bits/cycle) on a 1000000 bit/s bus: 179.0 % cyclic (...); lower the
+// rate to at most 1005.6 Hz or use can.rpdo_layout: broadcast (...)"
+fw::LayoutLoad require_bus_load_fits(const CanConfig& config);
 
 }  // namespace dualv::drivers

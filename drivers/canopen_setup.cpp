@@ -19,7 +19,7 @@ std::unique_ptr<CanopenActuatorSet> boot_actuator_set(
     CanBus& bus, const canopen::Clock& clock, canopen::Waiter& waiter, const CanConfig& config,
     const std::function<void(const std::string&)>& log) {
   validate(config);
-  const fw::BusLoadReport load = require_bus_load_fits(config);
+  const fw::LayoutLoad load = require_bus_load_fits(config);
   if (log) log(format_bus_load(config, load));
   {
     canopen::CanopenMaster master(bus, clock, waiter, master_config(config));

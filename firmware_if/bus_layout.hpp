@@ -1,6 +1,6 @@
 #pragma once
-// The three bus layouts of issue 15 and their worst-case load (docs/architecture.md "CAN contract" and
-// "Beating the naive bus limit"); frame sizes from firmware_if/can_frame_bits.hpp.
+// The three bus layouts of issue 15 and their worst-case load (docs/architecture.md "CAN contract"
+// and "Beating the naive bus limit"); frame sizes from firmware_if/can_frame_bits.hpp.
 //
 //   per-drive  SYNC, RPDO1 controlword + torque (4 B) and TPDO1 statusword + position (6 B)
 //              per drive, every cycle: 55 + 4*95 + 4*115 = 895 bits for four drives.
@@ -18,6 +18,7 @@
 #include <cstdint>
 
 #include "firmware_if/can_frame_bits.hpp"
+#include "firmware_if/pdo.hpp"
 
 namespace dualv::fw {
 
@@ -34,6 +35,11 @@ constexpr const char* to_string(BusLayout l) noexcept {
       return "can_fd";
   }
   return "?";
+}
+
+// The layout the master boots for a `can.rpdo_layout` (CAN FD is not bootable yet).
+constexpr BusLayout bus_layout_of(RpdoLayoutKind k) noexcept {
+  return k == RpdoLayoutKind::kBroadcast ? BusLayout::kBroadcast : BusLayout::kPerDrive;
 }
 
 struct BusParams {
@@ -73,8 +79,10 @@ constexpr LayoutTraffic layout_traffic(BusLayout layout, const BusParams& p) noe
   t.add({"SYNC", 1, p.sync_bytes, classic_frame_bits(p.sync_bytes), 0});
   switch (layout) {
     case BusLayout::kPerDrive:
-      t.add({"RPDO controlword + torque", p.drives, 4, classic_frame_bits(4), 0});
-      t.add({"TPDO statusword + position", p.drives, 6, classic_frame_bits(6), 0});
+      t.add({"RPDO controlword + torque", p.drives, kRpdo1Layout.bytes(),
+             classic_frame_bits(kRpdo1Layout.bytes()), 0});
+      t.add({"TPDO statusword + position", p.drives, kTpdo1Layout.bytes(),
+             classic_frame_bits(kTpdo1Layout.bytes()), 0});
       break;
     case BusLayout::kBroadcast: {
       // 4 torques per 8-byte frame; the last frame carries the rest.
@@ -85,10 +93,13 @@ constexpr LayoutTraffic layout_traffic(BusLayout layout, const BusParams& p) noe
         const auto bytes = static_cast<std::uint8_t>(2 * (p.drives - 4 * (frames - 1)));
         t.add({"RPDO torques", 1, bytes, classic_frame_bits(bytes), 0});
       }
-      t.add({"TPDO position", p.drives, 4, classic_frame_bits(4), 0});
-      t.add({"event TPDO statusword", p.drives, 2, classic_frame_bits(2), p.statusword_inhibit_s});
-      t.add(
-          {"event RPDO controlword", p.drives, 2, classic_frame_bits(2), p.controlword_inhibit_s});
+      // The PDO layouts the master boots (firmware_if/pdo.hpp), so model and wire agree.
+      t.add({"TPDO position", p.drives, kPositionTpdoLayout.bytes(),
+             classic_frame_bits(kPositionTpdoLayout.bytes()), 0});
+      t.add({"event TPDO statusword", p.drives, kStatuswordTpdoLayout.bytes(),
+             classic_frame_bits(kStatuswordTpdoLayout.bytes()), p.statusword_inhibit_s});
+      t.add({"event RPDO controlword", p.drives, kControlwordRpdoLayout.bytes(),
+             classic_frame_bits(kControlwordRpdoLayout.bytes()), p.controlword_inhibit_s});
       break;
     }
     case BusLayout::kFd: {

@@ -75,9 +75,19 @@ struct CanDriveConfig {
 struct CanConfig {
   std::string interface = "vcan0";
   std::uint32_t bitrate = 1'000'000;  // [bit/s]
-  double max_bus_load = 0.95;         // worst-case fraction accepted
+  double max_bus_load = 0.95;         // worst-case fraction accepted, event PDOs at their bound
+  double max_cyclic_load = 0.90;      // ... for the cyclic frames alone (issue 15)
   RpdoLayoutKind rpdo_layout = RpdoLayoutKind::kPerDrive;
-  std::uint64_t controlword_refresh_ns = 100'000'000;  // broadcast layout only
+  // Broadcast layout only (firmware_if/pdo.hpp): the host sends a drive's controlword RPDO
+  // when it changes, at most once per controlword_inhibit and at least once per
+  // controlword_refresh; the drive sends its statusword TPDO3 on change, at most once per
+  // statusword_inhibit (1802h sub3, 100 us units) and at least once per statusword_refresh
+  // (1802h sub5, ms). So the host sees a drive's state at most statusword_inhibit + one cycle
+  // after it changed, and hears it at least every statusword_refresh.
+  std::uint64_t controlword_refresh_ns = 100'000'000;
+  std::uint64_t controlword_inhibit_ns = 10'000'000;
+  std::uint64_t statusword_inhibit_ns = 10'000'000;
+  std::uint64_t statusword_refresh_ns = 100'000'000;
 
   std::uint64_t sync_period_ns = 1'000'000;  // = control period
   std::uint8_t sync_counter_overflow = 0;    // 0 or 2..240 (1019h)

@@ -130,4 +130,35 @@ Result<std::uint16_t> decode_controlword_rpdo(const CanFrame& frame) noexcept {
   return get_u16_le(&frame.data[0]);
 }
 
+Result<CanFrame> encode_position_tpdo(std::uint8_t node, std::int32_t position) noexcept {
+  Result<CanFrame> r = pdo_frame(Function::kTpdo1, node, kPositionTpdoLayout.bytes());
+  if (!r) return r;
+  CanFrame f = *r;
+  put_u32_le(&f.data[0], static_cast<std::uint32_t>(position));
+  return f;
+}
+
+Result<std::int32_t> decode_position_tpdo(const CanFrame& frame) noexcept {
+  const Result<std::uint8_t> node = expect_function(frame, Function::kTpdo1);
+  if (!node) return node.error();
+  if (frame.dlc != kPositionTpdoLayout.bytes()) return Error::kWrongDlc;
+  return as_i32(get_u32_le(&frame.data[0]));
+}
+
+Result<CanFrame> encode_statusword_tpdo(std::uint8_t node, std::uint16_t statusword) noexcept {
+  Result<CanFrame> r =
+      pdo_frame(tpdo_function(kStatuswordTpdoNumber), node, kStatuswordTpdoLayout.bytes());
+  if (!r) return r;
+  CanFrame f = *r;
+  put_u16_le(&f.data[0], statusword);
+  return f;
+}
+
+Result<std::uint16_t> decode_statusword_tpdo(const CanFrame& frame) noexcept {
+  const Result<std::uint8_t> node = expect_function(frame, tpdo_function(kStatuswordTpdoNumber));
+  if (!node) return node.error();
+  if (frame.dlc != kStatuswordTpdoLayout.bytes()) return Error::kWrongDlc;
+  return get_u16_le(&frame.data[0]);
+}
+
 }  // namespace dualv::fw

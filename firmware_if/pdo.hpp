@@ -1,8 +1,9 @@
 #pragma once
 // PDO mapping (CiA 301 7.4.7.1 / 7.5.2.36) and the PDO layouts of the CAN contract
-// (docs/architecture.md): per-drive RPDO1 = controlword + target torque, TPDO1 = statusword + position
-// actual; or one broadcast RPDO carrying every drive's target torque ("Beating the naive bus
-// limit"), with the controlword moved to its own event-driven RPDO1.
+// (docs/architecture.md): per-drive RPDO1 = controlword + target torque, TPDO1 = statusword +
+// position actual; or one broadcast RPDO carrying every drive's target torque ("Beating the naive
+// bus limit", issue 15), the cyclic TPDO1 with the position alone, and the controlword (RPDO1) and
+// the statusword (TPDO3) as event-driven PDOs bounded by their inhibit times.
 #include <array>
 #include <cstdint>
 
@@ -83,8 +84,9 @@ inline constexpr std::uint8_t kTransmissionEventProfile = 0xFF;  // asynchronous
 // ---- the contract's layouts ----------------------------------------------------------
 enum class RpdoLayoutKind : std::uint8_t {
   kPerDrive,   // RPDO1 0x200+id: controlword u16 + target torque i16, every SYNC
-  kBroadcast,  // one frame on kBroadcastRpdoCobId with all target torques (i16 each) +
-               // per-drive RPDO1 0x200+id with the controlword only, sent on change
+  kBroadcast,  // one frame on kBroadcastRpdoCobId with all target torques (i16 each),
+               // every SYNC; per drive RPDO1 0x200+id = controlword (on change), TPDO1
+               // 0x180+id = position (every SYNC), TPDO3 0x380+id = statusword (on change)
 };
 const char* to_string(RpdoLayoutKind k) noexcept;
 
@@ -95,6 +97,12 @@ inline constexpr PdoLayout kTpdo1Layout{
 // Broadcast mode: RPDO1 carries the controlword alone, RPDO2 is the broadcast frame.
 inline constexpr PdoLayout kControlwordRpdoLayout{{map_entry(od::kControlword)}, 1};
 inline constexpr std::uint8_t kBroadcastRpdoNumber = 2;
+// Broadcast mode: TPDO1 carries the position alone (every SYNC), TPDO3 the statusword
+// (transmission type 255, on change, at most once per inhibit time 1802h sub3 and at least
+// once per event timer 1802h sub5).
+inline constexpr PdoLayout kPositionTpdoLayout{{map_entry(od::kPositionActual)}, 1};
+inline constexpr PdoLayout kStatuswordTpdoLayout{{map_entry(od::kStatusword)}, 1};
+inline constexpr std::uint8_t kStatuswordTpdoNumber = 3;
 inline constexpr std::uint8_t kBroadcastMaxDrives = 4;  // 8 bytes / 2 per i16 torque
 
 // The broadcast RPDO mapping of the drive in `slot` (0..drives-1): its own target torque
@@ -150,5 +158,10 @@ Result<BroadcastTorques> decode_broadcast_torques(const CanFrame& frame) noexcep
 Result<std::int16_t> decode_broadcast_torque(const CanFrame& frame, std::uint8_t slot) noexcept;
 Result<CanFrame> encode_controlword_rpdo(std::uint8_t node, std::uint16_t controlword) noexcept;
 Result<std::uint16_t> decode_controlword_rpdo(const CanFrame& frame) noexcept;
+// TPDO1 of the broadcast mode (position, 4 B) and its TPDO3 (statusword, 2 B).
+Result<CanFrame> encode_position_tpdo(std::uint8_t node, std::int32_t position) noexcept;
+Result<std::int32_t> decode_position_tpdo(const CanFrame& frame) noexcept;
+Result<CanFrame> encode_statusword_tpdo(std::uint8_t node, std::uint16_t statusword) noexcept;
+Result<std::uint16_t> decode_statusword_tpdo(const CanFrame& frame) noexcept;
 
 }  // namespace dualv::fw

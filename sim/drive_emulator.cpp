@@ -61,6 +61,7 @@ struct Pdo {
   std::uint16_t cob = 0;
   std::uint8_t type = 0;
   std::uint16_t event_ms = 0;
+  std::uint64_t inhibit_ns = 0;  // TPDO: 1800h sub3 x 100 us
   std::uint8_t count = 0;
   std::array<MapRef, fw::od::kPdoMaxMappedObjects> map{};
   std::uint8_t bytes = 0;
@@ -72,6 +73,8 @@ struct Pdo {
   std::array<std::uint8_t, 8> last{};  // TPDO types 0/254/255: last sent
   bool sent_once = false;
   std::uint64_t next_event_ns = 0;  // TPDO event timer
+  std::uint64_t last_tx_ns = 0;     // TPDO: last transmission (inhibit time)
+  bool change_pending = false;      // TPDO: a change waits for the inhibit time to end
   std::uint64_t last_rx_ns = 0;     // RPDO deadline (event timer)
   bool deadline_armed = false;
 };
@@ -215,6 +218,7 @@ struct DriveEmulator::Drive {
       s_qs = -1, s_max = -1, s_rated = -1, s_sync = -1, s_period = -1;
   std::array<int, kEmulatedConsumerHeartbeats> s_hb_cons{};
 
+  bool refuse_dummies = false;  // DriveEmulatorConfig::refuse_dummy_mapping
   std::array<Pdo, kEmulatedPdos> rpdo{};
   std::array<Pdo, kEmulatedPdos> tpdo{};
 
@@ -270,6 +274,7 @@ struct DriveEmulator::Drive {
     namespace od = fw::od;
     index = joint;
     dict.set_absent(c.absent_objects);
+    refuse_dummies = c.refuse_dummy_mapping;
     sdo_server.configure(c.drives[static_cast<std::size_t>(joint)].node_id,
                          {c.segmented_upload, c.upload_without_size});
     cfg = c.drives[static_cast<std::size_t>(joint)];
@@ -350,6 +355,7 @@ struct DriveEmulator::Drive {
     p.cob = static_cast<std::uint16_t>(cob & fw::kMaxStandardId);
     p.type = static_cast<std::uint8_t>(u(find(fw::od::pdo_transmission_type(d, n))));
     p.event_ms = static_cast<std::uint16_t>(u(find(fw::od::pdo_event_timer(d, n))));
+    if (!rx) p.inhibit_ns = u(find(fw::od::pdo_inhibit_time(d, n))) * 100'000ull;
     const auto count = static_cast<std::uint8_t>(std::min<std::uint32_t>(
         u(find(fw::od::pdo_mapping_count(d, n))), fw::od::kPdoMaxMappedObjects));
     std::uint32_t bits = 0;
@@ -458,6 +464,8 @@ struct DriveEmulator::Drive {
     if (e.subindex == 0) return v == 0 ? kNoAbort : check_mapping(d, n, v);
     if (u(find(fo::pdo_mapping_count(d, n))) != 0)
       return abort_value(SdoAbortCode::kUnsupportedAccess);
+    if (refuse_dummies && fw::is_dummy(fw::decode_mapping(v)))
+      return abort_value(SdoAbortCode::kCannotBeMapped);
     return kNoAbort;
   }
 
@@ -820,9 +828,18 @@ struct DriveEmulator::Drive {
     }
     return mine;
   }
-  void send_tpdo(DriveEmulator& emu, Pdo& p, const std::array<std::uint8_t, 8>& data) noexcept {
+  // The inhibit time since the last transmission has passed (CiA 301 7.5.2.37).
+  static bool inhibit_over(const Pdo& p, std::uint64_t now) noexcept {
+    return !p.sent_once || p.inhibit_ns == 0 || now - p.last_tx_ns >= p.inhibit_ns;
+  }
+  void send_tpdo(DriveEmulator& emu, Pdo& p, const std::array<std::uint8_t, 8>& data,
+                 std::uint64_t now) noexcept {
     p.last = data;
     p.sent_once = true;
+    p.change_pending = false;
+    p.last_tx_ns = now;
+    if (p.event_ms != 0)
+      p.next_event_ns = now + static_cast<std::uint64_t>(p.event_ms) * 1'000'000u;
     if (drop_tpdos > 0) {
       if (drop_tpdos != DriveEmulator::kForever) --drop_tpdos;
       ++counters.tpdos_dropped;
@@ -864,10 +881,13 @@ struct DriveEmulator::Drive {
           if (p.type >= 1 && p.type <= 240) {
             if (++p.sync_count >= p.type) {
               p.sync_count = 0;
-              send_tpdo(emu, p, data);
+              send_tpdo(emu, p, data, now);
             }
           } else if (!p.sent_once || data != p.last) {
-            send_tpdo(emu, p, data);
+            if (inhibit_over(p, now))
+              send_tpdo(emu, p, data, now);
+            else
+              p.change_pending = true;  // sent by on_time when the inhibit time ends
           }
         }
       }
@@ -956,13 +976,19 @@ struct DriveEmulator::Drive {
         send_emcy(emu, fw::emcy::kRpdoTimeout);
       abort_connection(emu, fw::emcy::kRpdoTimeout);
     }
-    // Event-driven TPDOs with an event timer.
+    // Event-driven TPDOs: a change held back by the inhibit time, and the event timer
+    // (both bounded by the inhibit time).
     for (Pdo& p : tpdo) {
-      if (!p.valid || p.count == 0 || p.event_ms == 0 || (p.type >= 1 && p.type <= 240)) continue;
-      if (now < p.next_event_ns) continue;
+      if (!p.valid || p.count == 0 || (p.type >= 1 && p.type <= 240) || silent) continue;
+      const bool timer = p.event_ms != 0 && now >= p.next_event_ns;
+      if (!(timer || p.change_pending) || !inhibit_over(p, now)) continue;
       refresh(emu);
-      send_tpdo(emu, p, tpdo_data(p));
-      p.next_event_ns = now + static_cast<std::uint64_t>(p.event_ms) * 1'000'000u;
+      const std::array<std::uint8_t, 8> data = tpdo_data(p);
+      if (timer || data != p.last) {
+        send_tpdo(emu, p, data, now);
+      } else {
+        p.change_pending = false;  // changed back within the inhibit time: nothing new
+      }
     }
   }
 
@@ -1020,9 +1046,9 @@ void DriveEmulator::sync(std::uint64_t now_ns, bool real, std::uint64_t stamp_ns
       const std::uint64_t nominal_ns = static_cast<std::uint64_t>(d.u(d.s_period)) * 1000u;
       if (nominal_ns != 0 && dt_ns > nominal_ns + nominal_ns / 2) ++late_syncs_;
     }
-    const std::uint64_t step_ns =
-        real && config_.plant_step_nominal ? static_cast<std::uint64_t>(period_s() * 1e9 + 0.5)
-                                           : dt_ns;
+    const std::uint64_t step_ns = real && config_.plant_step_nominal
+                                      ? static_cast<std::uint64_t>(period_s() * 1e9 + 0.5)
+                                      : dt_ns;
     if (step_ns > 0) plant_.advance(static_cast<double>(step_ns) * 1e-9);
   }
   plant_started_ = true;

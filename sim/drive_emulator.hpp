@@ -38,7 +38,10 @@
 //    sets RPDO2's COB-ID to 200h and maps broadcast_rpdo_layout(slot, n).
 //    RPDO transmission types 0..240 are synchronous: the data is latched at the next SYNC
 //    (CiA 301 7.2.2.2); 254/255 act on reception. TPDO types 1..240 are sent every n-th
-//    SYNC; 0, 254 and 255 at a SYNC when their content changed, and on their event timer.
+//    SYNC; 0, 254 and 255 at a SYNC when their content changed, and on their event timer
+//    (1800h sub5, restarted by every transmission). The inhibit time (1800h sub3, 100 us)
+//    is the least spacing of two transmissions of a TPDO (CiA 301 7.5.2.37): a change
+//    inside it is sent when it ends (on_time, with the data of that moment).
 //    An RPDO shorter than its mapping is dropped with EMCY 8210h.
 //  - the CiA 402 state machine (CiA 402-2 6.2, firmware_if/cia402.hpp) driven by the
 //    controlword 6040h: transitions 2..12 and 15 (fault reset on the rising edge of bit 7
@@ -152,6 +155,9 @@ struct DriveEmulatorConfig {
   // out: 1006h, 1019h, 6007h, 605Ah..605Eh, 606Ch, 6077h, 60C2h, 60FDh.
   bool upload_without_size = false;
   std::vector<std::uint16_t> absent_objects;
+  // A drive that cannot map CiA 301 dummy entries (0002h..0007h): the write of such a
+  // mapping entry is aborted with 06040041h (`dualv sim --no-dummy-mapping`).
+  bool refuse_dummy_mapping = false;
   std::uint32_t vendor_id = 0x00000000;     // 1018h sub1 (none registered: a simulator)
   std::uint32_t product_code = 0x44564531;  // 1018h sub2, "DVE1"
 

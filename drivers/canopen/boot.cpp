@@ -63,6 +63,12 @@ bool means_absent(std::uint32_t code, const fw::OdEntry& e) {
   return mapping && code == static_cast<std::uint32_t>(C::kCannotBeMapped);
 }
 
+// A write of an RPDO mapping entry (1600h..17FFh sub1..) that maps a dummy (0002h..0007h).
+bool is_dummy_mapping(const ConfigWrite& w) {
+  return w.entry.index >= fw::od::kRpdoMappingBase && w.entry.index < 0x1800 &&
+         w.entry.subindex >= 1 && fw::is_dummy(fw::decode_mapping(w.value));
+}
+
 std::uint32_t raw16(std::int16_t v) { return static_cast<std::uint16_t>(v); }
 
 std::uint32_t mask(const fw::OdEntry& e) {
@@ -115,8 +121,19 @@ std::vector<ConfigWrite> boot_writes(const CanConfig& c, int drive) {
                                       static_cast<std::uint8_t>(c.drives.size())),
             fw::kTransmissionSyncEvery, deadline, true);
   }
-  add_pdo(w, PdoDirection::kTpdo, 1, fw::cob_id(fw::Function::kTpdo1, id), fw::kTpdo1Layout,
-          fw::kTransmissionSyncEvery, 0, false);
+  if (c.rpdo_layout == fw::RpdoLayoutKind::kPerDrive) {
+    add_pdo(w, PdoDirection::kTpdo, 1, fw::cob_id(fw::Function::kTpdo1, id), fw::kTpdo1Layout,
+            fw::kTransmissionSyncEvery, 0, false);
+  } else {
+    // Position alone every SYNC; the statusword on change, at most once per inhibit time
+    // and at least once per event timer (CiA 301 7.5.2.37 sub3 / sub5).
+    add_pdo(w, PdoDirection::kTpdo, 1, fw::cob_id(fw::Function::kTpdo1, id),
+            fw::kPositionTpdoLayout, fw::kTransmissionSyncEvery, 0, false);
+    add_pdo(w, PdoDirection::kTpdo, fw::kStatuswordTpdoNumber,
+            fw::cob_id(fw::tpdo_function(fw::kStatuswordTpdoNumber), id), fw::kStatuswordTpdoLayout,
+            fw::kTransmissionEventProfile, ms(c.statusword_refresh_ns), true,
+            static_cast<std::uint16_t>(c.statusword_inhibit_ns / 100'000u));
+  }
   if (c.digital_inputs_refresh_ns != 0)
     object("digital_inputs", o.digital_inputs, [&] {
       add_pdo(w, PdoDirection::kTpdo, kDigitalInputsTpdo,
@@ -210,6 +227,14 @@ void configure(CanopenMaster& m, const CanConfig& c, int i, std::vector<SkippedO
       m.write(id, w.entry, w.value);
       back = m.read(id, w.entry);
     } catch (const SdoError& e) {
+      if (e.status() == SdoStatus::kAborted && is_dummy_mapping(w))
+        throw SdoError(
+            fmt::format("node {} (can.drives[{}]) refuses the CiA 301 dummy mapping entry {:04X}h "
+                        "({} bits) in {}: aborted {:08X}h {}. This drive cannot run "
+                        "can.rpdo_layout: broadcast; use per_drive",
+                        id, i, fw::decode_mapping(w.value).index, fw::decode_mapping(w.value).bits,
+                        describe(w.entry), e.code(), fw::sdo_abort_text(e.code())),
+            e.node(), e.index(), e.subindex(), e.status(), e.code());
       if (w.object == nullptr || w.policy != ObjectPolicy::kOptional ||
           e.status() != SdoStatus::kAborted || !means_absent(e.code(), w.entry)) {
         if (w.object != nullptr && w.policy == ObjectPolicy::kRequired &&

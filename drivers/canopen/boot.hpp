@@ -69,7 +69,9 @@ std::string describe(const SkippedObject& s);
 //   RPDO1: COB-ID invalid, mapping count 0, mapping entries, count, transmission type,
 //   event timer (deadline, 1400h sub5, on the cyclic RPDO), COB-ID valid (CiA 301 7.5.2.35:
 //   a mapping is only changed while the PDO is invalid);
-//   TPDO1: the same, transmission type 1 (every SYNC);
+//   TPDO1: the same, transmission type 1 (every SYNC): statusword + position (per-drive) or
+//   position alone (broadcast); broadcast only, TPDO3 = statusword, transmission type 255
+//   (on change), inhibit time can.statusword_inhibit, event timer can.statusword_refresh;
 //   TPDO2 (when can.digital_inputs_refresh > 0): 60FDh digital inputs, transmission type
 //   255 (on change), inhibit time 1 ms, event timer = the refresh;
 //   6060h = 10 (cyclic synchronous torque), 6072h max torque (per mille of rated),
@@ -85,7 +87,10 @@ std::vector<ConfigWrite> boot_writes(const CanConfig& config, int drive);
 bool interpolation_period(std::uint64_t period_ns, std::uint8_t& value,
                           std::int8_t& index) noexcept;
 
-// Runs the whole sequence above. Throws BootTimeoutError, SdoError or CanopenError
+// Runs the whole sequence above. A drive that aborts the write of a dummy mapping entry
+// (broadcast layout) gets an SdoError naming the node, can.drives[i], the entry and the
+// mapping object, and saying to use can.rpdo_layout: per_drive.
+// Throws BootTimeoutError, SdoError or CanopenError
 // (what() names the node and the object), or ConfigError for a drive whose parameters do
 // not match the configuration. Returns the optional objects skipped, each also given to
 // `log` (one line each) when set.

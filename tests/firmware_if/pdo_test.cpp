@@ -71,6 +71,31 @@ TEST(Pdo, BroadcastLayouts) {
   EXPECT_EQ(broadcast_rpdo_layout(0, 0).count, 0);
 }
 
+TEST(Pdo, BroadcastFeedbackLayouts) {
+  // Issue 15: TPDO1 = 6064h alone (4 B), TPDO3 = 6041h alone (2 B).
+  ASSERT_EQ(kPositionTpdoLayout.count, 1);
+  EXPECT_EQ(encode_mapping(kPositionTpdoLayout.entries[0]), 0x60640020u);
+  EXPECT_EQ(kPositionTpdoLayout.bytes(), 4);
+  ASSERT_EQ(kStatuswordTpdoLayout.count, 1);
+  EXPECT_EQ(encode_mapping(kStatuswordTpdoLayout.entries[0]), 0x60410010u);
+  EXPECT_EQ(kStatuswordTpdoLayout.bytes(), 2);
+  EXPECT_EQ(kStatuswordTpdoNumber, 3);
+}
+
+TEST(Pdo, BroadcastFeedbackGolden) {
+  // Node 2, position -2 counts: 182h, FE FF FF FF. Node 4, statusword 0637h: 384h, 37 06.
+  EXPECT_EQ(*encode_position_tpdo(2, -2), make_frame(0x182, {0xFE, 0xFF, 0xFF, 0xFF}));
+  EXPECT_EQ(*decode_position_tpdo(make_frame(0x183, {0x78, 0x56, 0x34, 0x12})), 0x12345678);
+  EXPECT_EQ(*encode_statusword_tpdo(4, 0x0637), make_frame(0x384, {0x37, 0x06}));
+  EXPECT_EQ(*decode_statusword_tpdo(make_frame(0x381, {0x08, 0x02})), 0x0208);
+  // The per-drive TPDO1 (6 B) is not a position TPDO, nor is a TPDO3 of 4 B a statusword.
+  EXPECT_EQ(decode_position_tpdo(make_frame(0x181, {0x37, 0x06, 0, 0, 0, 0})).error(),
+            Error::kWrongDlc);
+  EXPECT_EQ(decode_statusword_tpdo(make_frame(0x381, {0, 0, 0, 0})).error(), Error::kWrongDlc);
+  EXPECT_EQ(decode_statusword_tpdo(make_frame(0x181, {0x37, 0x06})).error(), Error::kWrongFunction);
+  EXPECT_EQ(encode_statusword_tpdo(0, 0).error(), Error::kBadNodeId);
+}
+
 TEST(Pdo, CommunicationParameterValues) {
   // 1800h sub1: bit 31 invalid, bit 30 no RTR, COB-ID.
   EXPECT_EQ(pdo_cob_id_value(0x181, true), 0x40000181u);

@@ -6,8 +6,8 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "tests/support/allocation_counter.hpp"
 #include "tests/sim/emulator_fixture.hpp"
+#include "tests/support/allocation_counter.hpp"
 
 namespace dualv::sim {
 namespace {
@@ -385,6 +385,77 @@ TEST_F(EmulatorTest, BroadcastLayoutCarriesEveryTorque) {
   for (int i = 0; i < 4; ++i)
     EXPECT_DOUBLE_EQ(emu->status(i).torque_nm,
                      fw::per_mille_to_nm(t.torque[static_cast<std::size_t>(i)], 50.0));
+}
+
+TEST_F(EmulatorTest, StatuswordTpdoOnChangeBoundedByItsInhibitTime) {
+  // Issue 15's feedback PDOs on node 1: TPDO1 = 6064h alone every SYNC, TPDO3 = 6041h on
+  // change (255), inhibit time 50 x 100 us = 5 ms, event timer 20 ms.
+  power_on();
+  const auto tx = od::PdoDirection::kTpdo;
+  write(1, od::pdo_cob_id(tx, 1), fw::pdo_cob_id_value(0x181, false));
+  write(1, od::pdo_mapping_count(tx, 1), 0);
+  write(1, od::pdo_mapping_entry(tx, 1, 1), 0x60640020);
+  write(1, od::pdo_mapping_count(tx, 1), 1);
+  write(1, od::pdo_cob_id(tx, 1), fw::pdo_cob_id_value(0x181, true));
+  write(1, od::pdo_cob_id(tx, 3), fw::pdo_cob_id_value(0x381, false));
+  write(1, od::pdo_mapping_count(tx, 3), 0);
+  write(1, od::pdo_mapping_entry(tx, 3, 1), 0x60410010);
+  write(1, od::pdo_mapping_count(tx, 3), 1);
+  write(1, od::pdo_transmission_type(tx, 3), 0xFF);
+  write(1, od::pdo_inhibit_time(tx, 3), 50);
+  write(1, od::pdo_event_timer(tx, 3), 20);
+  write(1, od::pdo_cob_id(tx, 3), fw::pdo_cob_id_value(0x381, true));
+  write(1, od::kModesOfOperation, 10);
+  drain();
+  send(fw::encode_nmt(fw::NmtCommand::kStart, 1));
+  at(0);
+  // Started: the event timer is due at once: Switch on disabled + remote = 0240h.
+  EXPECT_EQ(only(0x381), (std::vector<fw::CanFrame>{frame(0x381, {0x40, 0x02})}));
+  // SYNC at 1 ms: the position (4 B), no statusword (unchanged).
+  send(fw::encode_sync());
+  at(1 * kMs);
+  const auto pos = only(0x181);
+  ASSERT_EQ(pos.size(), 1u);
+  EXPECT_EQ(pos[0].dlc, 4);
+  EXPECT_TRUE(only(0x381).empty());
+  // Shutdown (0006h) at 2 ms: Ready to switch on = 0221h. The SYNC at 2 ms sees the change,
+  // but the last TPDO3 went at 0 ms: held until 0 + 5 ms.
+  write(1, od::kControlword, 0x06);
+  for (std::uint64_t t : {2, 3, 4}) {
+    send(fw::encode_sync());
+    at(t * kMs);
+    EXPECT_TRUE(only(0x381).empty()) << t << " ms";
+  }
+  at(5 * kMs - 1);
+  EXPECT_TRUE(only(0x381).empty());
+  at(5 * kMs);
+  EXPECT_EQ(only(0x381), (std::vector<fw::CanFrame>{frame(0x381, {0x21, 0x02})}));
+  // A change after the inhibit time is sent at the next SYNC: switch on (0007h) at 11 ms,
+  // Switched on + voltage enabled = 0233h.
+  at(11 * kMs);
+  write(1, od::kControlword, 0x07);
+  send(fw::encode_sync());
+  at(11 * kMs);
+  EXPECT_EQ(only(0x381), (std::vector<fw::CanFrame>{frame(0x381, {0x33, 0x02})}));
+  // No change: the event timer sends it again 20 ms after the last one, not before.
+  at(31 * kMs - 1);
+  EXPECT_TRUE(only(0x381).empty());
+  at(31 * kMs);
+  EXPECT_EQ(only(0x381), (std::vector<fw::CanFrame>{frame(0x381, {0x33, 0x02})}));
+}
+
+TEST_F(EmulatorTest, DriveWithoutDummyMappingAbortsTheEntry) {
+  DriveEmulatorConfig c = default_config();
+  c.refuse_dummy_mapping = true;
+  build(c);
+  power_on();
+  const auto rx = od::PdoDirection::kRpdo;
+  write(1, od::pdo_cob_id(rx, 2), fw::pdo_cob_id_value(0x200, false));
+  write(1, od::pdo_mapping_count(rx, 2), 0);
+  write(1, od::pdo_mapping_entry(rx, 2, 1), 0x60710010);  // a real object: fine
+  EXPECT_EQ(
+      abort_code(sdo(1, fw::sdo_download_value(1, od::pdo_mapping_entry(rx, 2, 2), 0x00030010))),
+      0x06040041u);
 }
 
 // ---- CiA 402 ------------------------------------------------------------------------------

@@ -276,5 +276,120 @@ TEST_F(MasterEmulator, ForeignDriveBootsAndRuns) {
     EXPECT_EQ(f.drive[static_cast<std::size_t>(i)].state, drivers::DriveState::kEnabled) << i;
 }
 
+// Issue 15: the broadcast layout booted by the real master into the emulator, checked on
+// the wire (a monitor sees every frame) against the frames the layout defines.
+TEST(MasterEmulatorBroadcast, BootsRunsAndTheWireIsTheLayout) {
+  drivers::CanConfig c = drivers::load_can_config_file(test::config_file());
+  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  InProcessCanRig r(test::dual_v(), load_plant_config_file(test::config_file()), c, 4096);
+  drivers::canopen::ManualClock clk;
+  RigWaiter w(r, clk);
+  auto set = drivers::boot_actuator_set(r.master_bus(), clk, w, c);
+  // The mappings read back from the drives' dictionaries: node 3 (slot 2) maps dummy,
+  // dummy, 6071h, dummy in RPDO2 (1601h) on 200h; TPDO1 = 6064h; TPDO3 = 6041h.
+  std::uint32_t v = 0;
+  const std::vector<std::pair<std::pair<std::uint16_t, std::uint8_t>, std::uint32_t>> want = {
+      {{0x1401, 1}, 0x00000200}, {{0x1601, 0}, 4},          {{0x1601, 1}, 0x00030010},
+      {{0x1601, 2}, 0x00030010}, {{0x1601, 3}, 0x60710010}, {{0x1601, 4}, 0x00030010},
+      {{0x1A00, 0}, 1},          {{0x1A00, 1}, 0x60640020}, {{0x1802, 1}, 0x40000383},
+      {{0x1802, 2}, 0xFF},       {{0x1802, 3}, 100},        {{0x1A02, 1}, 0x60410010}};
+  for (const auto& [key, value] : want) {
+    ASSERT_TRUE(r.emulator().read_object(2, key.first, key.second, v));
+    EXPECT_EQ(v, value) << std::hex << key.first << " sub " << int(key.second);
+  }
+  (void)drain_all(r.monitor_bus());
+  drivers::ActuatorFeedback f;
+  drivers::ActuatorCommand cmd;
+  cmd.n = 4;
+  std::array<std::uint64_t, 4> last_sw{};
+  std::array<int, 4> statuswords{};
+  std::uint64_t min_sw_gap = ~0ull;
+  int torque_frames = 0, positions = 0, syncs = 0;
+  for (int k = 0; k < 600; ++k) {
+    set->read(f);
+    cmd.request = k < 100 ? drivers::DriveRequest::kEnable : drivers::DriveRequest::kHold;
+    cmd.torque = {0.5, -0.5, 0.25, -0.25};
+    set->write(cmd);
+    r.step(c.sync_period_ns);
+    clk.set_ns(r.now_ns());
+    for (const fw::CanFrame& fr : drain_all(r.monitor_bus())) {
+      syncs += fr.id == 0x080;
+      if (fr.id == 0x200) {
+        ++torque_frames;
+        EXPECT_EQ(fr.dlc, 8);
+      }
+      if (fr.id >= 0x181 && fr.id <= 0x184) {
+        ++positions;
+        EXPECT_EQ(fr.dlc, 4);
+      }
+      EXPECT_FALSE(fr.id >= 0x201 && fr.id <= 0x204 && fr.dlc != 2) << "per-drive RPDO on the wire";
+      if (fr.id >= 0x381 && fr.id <= 0x384) {
+        const std::size_t i = fr.id - 0x381;
+        EXPECT_EQ(fr.dlc, 2);
+        if (statuswords[i]++ > 0) min_sw_gap = std::min(min_sw_gap, fr.timestamp_ns - last_sw[i]);
+        last_sw[i] = fr.timestamp_ns;
+      }
+    }
+  }
+  EXPECT_EQ(syncs, 600);
+  EXPECT_EQ(torque_frames, 600);
+  EXPECT_EQ(positions, 4 * 600);
+  // Each drive's statusword: its changes on the way to Operation enabled, then the event
+  // timer (0.1 s): never two within the inhibit time (10 ms).
+  for (int i = 0; i < 4; ++i) EXPECT_GE(statuswords[static_cast<std::size_t>(i)], 5) << i;
+  EXPECT_GE(min_sw_gap, c.statusword_inhibit_ns);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(r.emulator().status(i).state, fw::Cia402State::kOperationEnabled) << i;
+    EXPECT_EQ(f.drive[static_cast<std::size_t>(i)].state, drivers::DriveState::kEnabled) << i;
+    EXPECT_TRUE(f.drive[static_cast<std::size_t>(i)].fresh) << i;
+    EXPECT_EQ(r.emulator().status(i).counters.deadline_trips, 0u) << i;
+    EXPECT_EQ(r.emulator().status(i).counters.watchdog_trips, 0u) << i;
+  }
+  EXPECT_EQ(r.emulator().status(1).target_torque, -10);  // -0.5 N m of 50 N m rated
+
+  // The host's stale-feedback check is on the position TPDO1: drive 2 stops sending TPDOs,
+  // and the very next read() finds it not fresh (its statusword is still within its bound).
+  r.emulator().drop_tpdos(1, DriveEmulator::kForever);
+  for (int k = 0; k < 2; ++k) {
+    set->read(f);
+    set->write(cmd);
+    r.step(c.sync_period_ns);
+    clk.set_ns(r.now_ns());
+  }
+  set->read(f);
+  EXPECT_FALSE(f.drive[1].fresh);
+  EXPECT_TRUE(f.drive[0].fresh);
+  // The drives' RPDO deadline is the event timer of the broadcast RPDO (1401h sub5 =
+  // can.rpdo_deadline, 10 ms): the host goes silent, every drive trips it once.
+  for (int k = 0; k < 15; ++k) {
+    r.step(c.sync_period_ns);
+    clk.set_ns(r.now_ns());
+  }
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(r.emulator().status(i).counters.deadline_trips, 1u) << i;
+}
+
+TEST(MasterEmulatorBroadcast, DriveWithoutDummyMappingRefusedByName) {
+  drivers::CanConfig c = drivers::load_can_config_file(test::config_file());
+  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  DriveEmulatorConfig e = emulator_config_from(c);
+  e.refuse_dummy_mapping = true;
+  InProcessCanRig r(test::dual_v(), load_plant_config_file(test::config_file()), e);
+  drivers::canopen::ManualClock clk;
+  RigWaiter w(r, clk);
+  try {
+    (void)drivers::boot_actuator_set(r.master_bus(), clk, w, c);
+    FAIL() << "booted";
+  } catch (const std::exception& ex) {
+    const std::string m = ex.what();
+    // Node 1 (slot 0) maps 6071h at sub1, its first dummy at sub2.
+    EXPECT_NE(m.find("node 1 (can.drives[0]) refuses the CiA 301 dummy mapping entry 0003h"),
+              std::string::npos)
+        << m;
+    EXPECT_NE(m.find("1601h sub2"), std::string::npos) << m;
+    EXPECT_NE(m.find("use per_drive"), std::string::npos) << m;
+  }
+  for (int i = 0; i < 4; ++i) EXPECT_NE(r.emulator().status(i).nmt, EmulatedNmt::kOperational);
+}
+
 }  // namespace
 }  // namespace dualv::sim

@@ -400,6 +400,68 @@ TEST(Boot, BroadcastLayoutWrites) {
   EXPECT_EQ(last_cob->value, 0x00000200u);
 }
 
+TEST(Boot, BroadcastLayoutFeedbackPdos) {
+  CanConfig c = config_for(4);
+  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  c.statusword_inhibit_ns = 2'500'000;                   // 25 x 100 us
+  c.statusword_refresh_ns = 40'000'000;                  // 40 ms
+  const std::vector<ConfigWrite> w = boot_writes(c, 2);  // node 3
+  auto last = [&](std::uint16_t index, std::uint8_t sub) -> std::int64_t {
+    std::int64_t v = -1;
+    for (const auto& x : w)
+      if (x.entry.index == index && x.entry.subindex == sub) v = x.value;
+    return v;
+  };
+  // TPDO1 (1800h / 1A00h): 183h, every SYNC, 6064h alone (CiA 301 7.5.2.37 / 38).
+  EXPECT_EQ(last(0x1800, 1), 0x40000183);
+  EXPECT_EQ(last(0x1800, 2), 1);
+  EXPECT_EQ(last(0x1A00, 0), 1);
+  EXPECT_EQ(last(0x1A00, 1), 0x60640020);
+  EXPECT_EQ(last(0x1A00, 2), -1);
+  // TPDO3 (1802h / 1A02h): 383h, on change (255), inhibit 25 x 100 us, event timer 40 ms,
+  // 6041h alone.
+  EXPECT_EQ(last(0x1802, 1), 0x40000383);
+  EXPECT_EQ(last(0x1802, 2), 0xFF);
+  EXPECT_EQ(last(0x1802, 3), 25);
+  EXPECT_EQ(last(0x1802, 5), 40);
+  EXPECT_EQ(last(0x1A02, 0), 1);
+  EXPECT_EQ(last(0x1A02, 1), 0x60410010);
+  // Per-drive: no TPDO3 is touched, TPDO1 is statusword + position.
+  c.rpdo_layout = fw::RpdoLayoutKind::kPerDrive;
+  const std::vector<ConfigWrite> p = boot_writes(c, 2);
+  for (const auto& x : p) EXPECT_NE(x.entry.index, 0x1802);
+  for (const auto& x : p)
+    if (x.entry.index == 0x1A00 && x.entry.subindex == 0 && x.value != 0) {
+      EXPECT_EQ(x.value, 2u);
+    }
+}
+
+TEST(Boot, DriveRefusingDummyMappingNamedWithTheObject) {
+  Bench b(2);
+  // Node 2 (slot 1) maps a dummy at 1601h sub1 and its torque at sub2.
+  b.slave(1).abort_on_write[{0x1601, 1}] =
+      static_cast<std::uint32_t>(fw::SdoAbortCode::kCannotBeMapped);
+  CanConfig c = config_for(2);
+  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  CanopenMaster m(b.master_bus(), b.clock, *b.waiter, drivers::master_config(c));
+  try {
+    boot_drives(m, c);
+    FAIL() << "no error";
+  } catch (const SdoError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(e.node(), 2);
+    EXPECT_EQ(e.code(), 0x06040041u);
+    EXPECT_NE(what.find("node 2 (can.drives[1]) refuses the CiA 301 dummy mapping entry 0003h (16 "
+                        "bits) in 1601h sub1"),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find("06040041h"), std::string::npos) << what;
+    EXPECT_NE(what.find("use per_drive"), std::string::npos) << what;
+  }
+  EXPECT_EQ(b.slave(0).nmt, fw::NmtState::kPreOperational);  // nothing started
+  EXPECT_EQ(b.slave(1).nmt, fw::NmtState::kPreOperational);
+}
+
 TEST(Boot, SyncCounterWritten) {
   CanConfig c = config_for(1);
   c.sync_counter_overflow = 20;

@@ -10,9 +10,9 @@
 #include <memory>
 #include <vector>
 
-#include "tests/support/allocation_counter.hpp"
 #include "common/config_error.hpp"
 #include "fake_slave.hpp"
+#include "tests/support/allocation_counter.hpp"
 
 namespace dualv::drivers {
 namespace {
@@ -29,6 +29,7 @@ struct SetFixture : ::testing::Test {
                                                    static_cast<std::uint8_t>(i + 1)));
       slaves.back()->nmt = fw::NmtState::kOperational;  // booted (boot_test covers boot)
       slaves.back()->slot = static_cast<std::uint8_t>(i);
+      slaves.back()->broadcast = layout == fw::RpdoLayoutKind::kBroadcast;
       slaves.back()->position = 10000 * (i + 1);
     }
     set = std::make_unique<CanopenActuatorSet>(hub.endpoint(0), clock, config);
@@ -48,7 +49,10 @@ struct SetFixture : ::testing::Test {
     return w;
   }
   void enable_all() {
-    for (int i = 0; i < 10; ++i) cycle(DriveRequest::kEnable);
+    // Per-drive: a CiA 402 step a cycle. Broadcast: a step per can.controlword_inhibit
+    // (10 ms), three steps.
+    const int cycles = config.rpdo_layout == fw::RpdoLayoutKind::kPerDrive ? 10 : 40;
+    for (int i = 0; i < cycles; ++i) cycle(DriveRequest::kEnable);
     cycle(DriveRequest::kHold);
     for (int i = 0; i < 4; ++i) ASSERT_EQ(fb.drive[i].state, DriveState::kEnabled) << i;
   }
@@ -399,6 +403,10 @@ TEST(CanopenActuatorSetSetup, SyncCounterOnTheWire) {
   canopen::ManualClock clock;
   CanConfig c = default_can_config();
   c.sync_counter_overflow = 2;
+  // Per-drive with a counter: 905 bits a cycle, 90.5 % at 1 kHz: above can.max_cyclic_load
+  // (90 %, issue 15), refused. The broadcast layout carries it: 65 + 135 + 4 x 95 = 580.
+  EXPECT_THROW(CanopenActuatorSet(hub.endpoint(0), clock, c), ConfigError);
+  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
   CanopenActuatorSet set(hub.endpoint(0), clock, c);
   ActuatorCommand cmd;
   cmd.n = 4;
@@ -409,7 +417,7 @@ TEST(CanopenActuatorSetSetup, SyncCounterOnTheWire) {
       if (f.id == 0x080) syncs.push_back(test::to_text(f));
   }
   EXPECT_EQ(syncs, (std::vector<std::string>{"080#01", "080#02", "080#01"}));
-  EXPECT_EQ(set.bus_load().bits_per_cycle, 905u);  // SYNC with one byte: 65 bits, not 55
+  EXPECT_EQ(set.bus_load().cyclic_bits.total(), 580u);  // SYNC with one byte: 65 bits, not 55
 }
 
 TEST(CanopenActuatorSetSetup, RefusesARateTheBusCannotCarry) {
@@ -440,7 +448,81 @@ TEST_F(BroadcastFixture, OneTorqueFrameControlwordsOnChange) {
   wire = test::drain(sniffer());
   EXPECT_EQ(test::to_text(wire[0]), "200#14002800ECFF0A00");  // 20, 40, -20, 10 per mille
   EXPECT_EQ(slave(2).target_torque, -20);
-  EXPECT_EQ(set->bus_load().bits_per_cycle, 650u);
+  EXPECT_EQ(set->bus_load().cyclic_bits.total(), 570u);  // 55 + 135 + 4 x 95
+}
+
+TEST_F(BroadcastFixture, PositionEveryCycleStatuswordOnChange) {
+  cycle();
+  // Answering the first SYNC: four position TPDO1s (4 B) and, the first time, four TPDO3s.
+  auto wire = test::drain(sniffer());
+  int positions = 0, statuswords = 0;
+  for (const auto& f : wire) {
+    positions += f.id >= 0x181 && f.id <= 0x184;
+    statuswords += f.id >= 0x381 && f.id <= 0x384;
+    if (f.id == 0x182) {
+      EXPECT_EQ(test::to_text(f), "182#204E0000");  // 20000 counts
+    }
+  }
+  EXPECT_EQ(positions, 4);
+  EXPECT_EQ(statuswords, 4);
+  cycle();  // its read() takes them
+  EXPECT_EQ(last_read, IoStatus::kOk);
+  for (int i = 0; i < 4; ++i) EXPECT_TRUE(fb.drive[i].fresh) << i;
+  EXPECT_NEAR(fb.drive[1].position, 20000.0 / (1 << 20) * 2 * 3.14159265358979, 1e-9);
+  wire = test::drain(sniffer());  // the second SYNC's answers
+  statuswords = 0;
+  for (const auto& f : wire) statuswords += f.id >= 0x381 && f.id <= 0x384;
+  EXPECT_EQ(statuswords, 0);  // unchanged: none
+  // The host still knows every drive's state from the TPDO3s and enables them.
+  enable_all();
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(set->drive(i).state(), fw::Cia402State::kOperationEnabled);
+  EXPECT_GE(set->drive_counters(0).statuswords, 4u);  // one per state on the way
+}
+
+TEST_F(BroadcastFixture, SilentStatuswordMakesTheDriveStale) {
+  enable_all();
+  // Drive 3 stops its statusword TPDO3 but keeps sending positions: after
+  // ceil(statusword_refresh / period) + stale_cycles = 100 + 3 cycles without one, the host
+  // no longer trusts its state (feedback not fresh, health STALE, torque 0).
+  const int bound = 100 + 3;
+  for (int k = 0; k < bound + 5; ++k) {
+    // The others' statusword comes as their event timer would send it; drive 3's once.
+    for (int i = 0; i < 4; ++i)
+      if ((i != 2 && k % 50 == 0) || k == 0)
+        slave(i).send(
+            fw::encode_statusword_tpdo(static_cast<std::uint8_t>(i + 1), slave(i).statusword()));
+    cmd.torque = {1.0, 1.0, 1.0, 1.0};
+    cycle(DriveRequest::kHold);
+    // Read k sees the statusword k cycles old: fresh up to the bound, stale after it.
+    EXPECT_EQ(fb.drive[2].fresh, k <= bound) << k;
+  }
+  EXPECT_FALSE(fb.drive[2].fresh);
+  EXPECT_TRUE(fb.drive[0].fresh);
+  EXPECT_EQ(set->health(2).health, DriveHealth::kStale);
+  EXPECT_EQ(std::string(set->health(2).reason),
+            "no statusword (TPDO3) within can.statusword_refresh");
+  EXPECT_EQ(set->last_sent(2).torque_per_mille, 0);
+  EXPECT_EQ(set->last_sent(0).torque_per_mille, 20);
+}
+
+TEST_F(BroadcastFixture, ControlwordChangeWaitsOutTheInhibitTime) {
+  const std::uint64_t t0 = clock.now_ns();
+  cycle();  // t0: the first controlwords
+  (void)test::drain(sniffer());
+  // Ask for enable 1 ms later: the change (0006h shutdown) waits until t0 + 10 ms
+  // (can.controlword_inhibit), each later step 10 ms after the one before.
+  std::vector<std::uint64_t> cw_times;
+  for (int k = 1; k < 30; ++k) {
+    const std::uint64_t t = clock.now_ns();
+    cycle(DriveRequest::kEnable);
+    for (const auto& f : test::drain(sniffer()))
+      if (f.id == 0x201) cw_times.push_back(t);
+  }
+  ASSERT_GE(cw_times.size(), 2u);
+  EXPECT_EQ(cw_times[0] - t0, 10 * kMs);
+  EXPECT_GE(cw_times[1] - cw_times[0], 10 * kMs);
+  for (std::size_t k = 1; k < cw_times.size(); ++k)
+    EXPECT_GE(cw_times[k] - cw_times[k - 1], 10 * kMs);
 }
 
 TEST_F(BroadcastFixture, ControlwordRefreshedPeriodically) {

@@ -61,8 +61,12 @@ can:
   interface: can1
   bitrate: 500000
   max_bus_load: 0.8
+  max_cyclic_load: 0.75
   rpdo_layout: broadcast
   controlword_refresh: 0.2
+  controlword_inhibit: 0.02
+  statusword_inhibit: 0.0035
+  statusword_refresh: 0.05
   sync: {period: 0.002, counter_overflow: 10}
   master: {node_id: 100, heartbeat_period: 0.02}
   heartbeat: {drive_period: 0.03, drive_timeout: 0.1, master_timeout: 0.06}
@@ -78,6 +82,10 @@ can:
   EXPECT_DOUBLE_EQ(c.max_bus_load, 0.8);
   EXPECT_EQ(c.rpdo_layout, fw::RpdoLayoutKind::kBroadcast);
   EXPECT_EQ(c.controlword_refresh_ns, 200'000'000u);
+  EXPECT_DOUBLE_EQ(c.max_cyclic_load, 0.75);
+  EXPECT_EQ(c.controlword_inhibit_ns, 20'000'000u);
+  EXPECT_EQ(c.statusword_inhibit_ns, 3'500'000u);
+  EXPECT_EQ(c.statusword_refresh_ns, 50'000'000u);
   EXPECT_EQ(c.sync_period_ns, 2'000'000u);
   EXPECT_EQ(c.sync_counter_overflow, 10);
   EXPECT_EQ(c.master_node_id, 100);
@@ -118,6 +126,20 @@ TEST(CanConfigRules, Bitrate) {
 TEST(CanConfigRules, MaxBusLoad) { expect_error("can: {max_bus_load: 1.5}", "can.max_bus_load"); }
 TEST(CanConfigRules, Layout) {
   expect_error("can: {rpdo_layout: multicast}", "can.rpdo_layout: must be per_drive or broadcast");
+  expect_error("can: {max_cyclic_load: 0.97}",
+               "can.max_cyclic_load: must be in (0, can.max_bus_load");
+  expect_error("can: {controlword_inhibit: 0.2}",
+               "can.controlword_inhibit: must be in (0, can.controlword_refresh = 0.1 s]");
+  expect_error("can: {statusword_inhibit: 0.00015}",
+               "can.statusword_inhibit: must be a multiple of 0.0001 s");
+  expect_error("can: {statusword_inhibit: 0}", "can.statusword_inhibit: must be a multiple");
+  expect_error("can: {statusword_refresh: 0.0105}",
+               "can.statusword_refresh: must be whole milliseconds");
+  expect_error("can: {statusword_refresh: 0.005}",
+               "can.statusword_refresh: must be whole milliseconds in [can.statusword_inhibit = "
+               "0.01 s");
+  expect_error("can: {rpdo_layout: broadcast, timeouts: {transition: 0.02}}",
+               "can.timeouts.transition: 0.02 s is too short for the broadcast layout");
 }
 TEST(CanConfigRules, BroadcastAtMostFourDrives) {
   expect_error(R"(can:
@@ -321,46 +343,89 @@ TEST(CanConfigRules, SyncPeriodMustEqualControlPeriod) {
   }
 }
 
-// ---- bus load ---------------------------------------------------------------------------
+// ---- bus load (the model: firmware_if/bus_layout.hpp) ---------------------------------------
 TEST(CanBusLoad, ContractNumbers) {
   CanConfig c = default_can_config();
-  fw::BusLoadReport r = bus_load_report(c);
-  EXPECT_EQ(r.bits_per_cycle, 895u);  // docs/architecture.md: 55 + 4 * 95 + 4 * 115
-  EXPECT_NEAR(r.load, 0.895, 1e-12);
+  fw::LayoutLoad r = bus_load_report(c);
+  EXPECT_EQ(r.cyclic_bits.total(), 895u);  // docs/architecture.md: 55 + 4 * 95 + 4 * 115
+  EXPECT_NEAR(r.cyclic_load, 0.895, 1e-12);
+  EXPECT_NEAR(r.total_load, 0.895, 1e-12);          // no event PDOs
+  EXPECT_NEAR(r.max_rate_hz, 0.90 / 895e-6, 1e-6);  // the cyclic limit binds
   EXPECT_TRUE(r.fits);
   c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
-  EXPECT_EQ(bus_load_report(c).bits_per_cycle, 650u);  // "Beating the naive bus limit"
-  const std::string text = format_bus_load(c, bus_load_report(c));
-  EXPECT_NE(text.find("650 bits/cycle"), std::string::npos) << text;
+  r = bus_load_report(c);
+  // "Beating the naive bus limit": 55 + 135 + 4 x 95; events: 2 x 4 frames of 75 bits at
+  // most every 10 ms = 60000 bit/s = 6 % of the bus.
+  EXPECT_EQ(r.cyclic_bits.total(), 570u);
+  EXPECT_NEAR(r.cyclic_load, 0.570, 1e-12);
+  EXPECT_NEAR(r.total_load, 0.630, 1e-12);
+  const std::string text = format_bus_load(c, r);
+  EXPECT_NE(text.find("570 bits/cycle"), std::string::npos) << text;
   EXPECT_NE(text.find("broadcast"), std::string::npos) << text;
-  EXPECT_NE(text.find("65.0 %"), std::string::npos) << text;
+  EXPECT_NE(text.find("57.0 % cyclic"), std::string::npos) << text;
+  EXPECT_NE(text.find("63.0 % with event PDOs"), std::string::npos) << text;
 }
 
-TEST(CanBusLoad, TooFastRateRefusedWithBothNumbers) {
+TEST(CanBusLoad, InhibitTimesCountInTheLoad) {
+  CanConfig c = default_can_config();
+  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  c.statusword_inhibit_ns = 2'000'000;   // 4 x 75 bits / 2 ms = 15 %
+  c.controlword_inhibit_ns = 5'000'000;  // 4 x 75 bits / 5 ms = 6 %
+  EXPECT_NEAR(bus_load_report(c).total_load, 0.570 + 0.15 + 0.06, 1e-12);
+}
+
+TEST(CanBusLoad, TooFastRateRefusedWithTheNumbers) {
   CanConfig c = default_can_config();
   c.sync_period_ns = 500'000;  // 2 kHz: 1.79 Mbit/s worst case
+  c.transition_timeout_ns = 500'000'000;
   try {
     (void)require_bus_load_fits(c);
     FAIL();
   } catch (const ConfigError& e) {
     const std::string m = e.what();
-    EXPECT_NE(m.find("2000.0 Hz needs 1790000 bit/s"), std::string::npos) << m;
+    EXPECT_NE(m.find("2000.0 Hz with the per_drive layout needs 1790000 bit/s"), std::string::npos)
+        << m;
     EXPECT_NE(m.find("895 bits/cycle"), std::string::npos) << m;
-    EXPECT_NE(m.find("1000000 bit/s x 95.0 % = 950000 bit/s"), std::string::npos) << m;
+    EXPECT_NE(m.find("179.0 % cyclic (can.max_cyclic_load 90.0 %)"), std::string::npos) << m;
+    EXPECT_NE(m.find("at most 1005.6 Hz"), std::string::npos) << m;
     EXPECT_NE(m.find("rpdo_layout: broadcast"), std::string::npos) << m;
   }
-  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;  // 650 bits x 2 kHz = 1.3 Mbit/s: still no
+  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;  // 570 bits x 2 kHz = 1.14 Mbit/s: still no
   EXPECT_THROW((void)require_bus_load_fits(c), ConfigError);
   c.sync_period_ns = 1'000'000;
   EXPECT_NO_THROW((void)require_bus_load_fits(c));
 }
 
+TEST(CanBusLoad, BroadcastCarriesOnePointFiveKilohertz) {
+  // Issue 15's target: 1.5 kHz, <= 90 % cyclic (85.5 %), <= 95 % with events (91.5 %).
+  CanConfig c = default_can_config();
+  c.sync_period_ns = 666'667;
+  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  const fw::LayoutLoad r = require_bus_load_fits(c);
+  EXPECT_NEAR(r.cyclic_load, 570e-6 * 1e9 / 666'667, 1e-9);
+  EXPECT_NEAR(r.total_load, 570e-6 * 1e9 / 666'667 + 0.06, 1e-9);
+  // Events at a 5 ms inhibit: 85.5 + 12 % > 95 %: refused, naming the event bound.
+  c.statusword_inhibit_ns = 5'000'000;
+  c.controlword_inhibit_ns = 5'000'000;
+  try {
+    (void)require_bus_load_fits(c);
+    FAIL();
+  } catch (const ConfigError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("97.5 % with event PDOs at their inhibit times (can.max_bus_load 95.0 %)"),
+              std::string::npos)
+        << m;
+  }
+}
+
 TEST(CanBusLoad, JustAboveTheLimit) {
   CanConfig c = default_can_config();
-  c.max_bus_load = 0.89;  // 89.5 % needed at 1 kHz
+  c.max_cyclic_load = 0.89;  // 89.5 % needed at 1 kHz
   EXPECT_THROW((void)require_bus_load_fits(c), ConfigError);
-  c.max_bus_load = 0.895;
+  c.max_cyclic_load = 0.895;
   EXPECT_NO_THROW((void)require_bus_load_fits(c));
+  c.max_bus_load = 0.89;  // below the cyclic limit: refused by the rules
+  EXPECT_THROW(validate(c), ConfigError);
 }
 
 }  // namespace

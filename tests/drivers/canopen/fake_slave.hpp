@@ -93,7 +93,22 @@ class FakeSlave {
     fw::put_u32_le(f.data.data(), di);
     (void)bus_.send(f);
   }
-  void send_tpdo() { send(fw::encode_tpdo1(node_, {statusword(), position})); }
+  // Per-drive: TPDO1 = statusword + position. Broadcast layout (`broadcast`): TPDO1 =
+  // position, and TPDO3 = statusword when it changed since the last one (no inhibit time:
+  // the emulator models that).
+  void send_tpdo() {
+    if (!broadcast) {
+      send(fw::encode_tpdo1(node_, {statusword(), position}));
+      return;
+    }
+    send(fw::encode_position_tpdo(node_, position));
+    if (!statusword_sent_ || statusword() != last_statusword_) {
+      send(fw::encode_statusword_tpdo(node_, statusword()));
+      statusword_sent_ = true;
+      last_statusword_ = statusword();
+    }
+  }
+  bool broadcast = false;
   // The drive faults on its own (e.g. over-temperature): EMCY + Fault.
   void fault(std::uint16_t code = fw::emcy::kDeviceOverTemperature) {
     cia = fw::Cia402State::kFault;
@@ -185,6 +200,8 @@ class FakeSlave {
   std::uint8_t slot = 0;  // broadcast layout: this drive's slot
 
  private:
+  bool statusword_sent_ = false;
+  std::uint16_t last_statusword_ = 0;
   void on_controlword(std::uint16_t cw) {
     const bool rising7 = (cw & fw::cw::kFaultReset) && !(controlword & fw::cw::kFaultReset);
     controlword = cw;
