@@ -190,7 +190,10 @@ int run_identify(const IdentifyArgs& args) {
         ex.program.duration(), base.size(), ex.condition);
     Variant v;
     v.name = "excitation";
-    const RunResult run = run_in_process(cfg, ex.program, v);
+    const RobotConfig run_cfg = icfg.for_excitation_run(cfg);
+    fmt::print("identify: excitation run with kp {:g}, kd {:g} (identify.run)\n",
+               run_cfg.control.controller.kp[0], run_cfg.control.controller.kd[0]);
+    const RunResult run = run_in_process(run_cfg, ex.program, v);
     if (!run.ok) fmt::print("identify: the excitation run stopped early: {}\n", run.failure);
     rec = recording_from_run(run, cfg.period());
   }
