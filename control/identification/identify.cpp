@@ -136,6 +136,7 @@ Identification identify(const model::Model& model, const Eigen::VectorXd& nomina
         "`dualv identify`, or lower identify.estimation.min_joint_speed)",
         r, id.duration, o.min_joint_speed, obs.samples(), o.decimation, o.min_duration, 3 * r));
   id.estimate = weighted_least_squares(obs);
+  id.correlation_time = obs.correlation_time;
   if (!(id.estimate.condition <= o.max_condition)) {
     // Name the parameters the motion excites least: the largest entries of the weakest
     // direction.

@@ -79,8 +79,9 @@ Observations observations(const model::Model& model, const BaseParameters& base,
 struct Identification {
   BaseParameters base;
   Estimate estimate;
-  Eigen::VectorXd nominal;  // base parameters of the nominal model and friction
-  double duration = 0.0;    // [s] of samples used
+  Eigen::VectorXd nominal;        // base parameters of the nominal model and friction
+  double duration = 0.0;          // [s] of samples used
+  double correlation_time = 0.0;  // [s] of the Newey-West sigma (0: white residuals)
 };
 
 // Throws IdentificationError (too short, too few moving samples, condition number too high:

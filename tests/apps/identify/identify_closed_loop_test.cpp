@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -177,7 +178,7 @@ TEST(IdentifyClosedLoop, RefusesARecordingTooShortNamingTheTimeNeeded) {
   }
 }
 
-TEST(IdentifyClosedLoop, RefusesThePaperProgramAsNotExcitingWithItsConditionNumber) {
+TEST(IdentifyClosedLoop, RefusesThePaperProgramAsAnExcitation) {
   // The paper's shapes keep the plate's angle constant and barely move some joints: the
   // regressor is ill conditioned, and the refusal says so with the number.
   const RobotConfig cfg = load_robot_config(std::string(DUALV_SOURCE_DIR) + "/config/dualv.yaml");
@@ -192,6 +193,32 @@ TEST(IdentifyClosedLoop, RefusesThePaperProgramAsNotExcitingWithItsConditionNumb
     EXPECT_TRUE(what.find("condition number") != std::string::npos ||
                 what.find("not enough motion") != std::string::npos)
         << what;
+  }
+}
+
+TEST(IdentifyClosedLoop, RefusesAMotionNotExcitingEnoughWithItsConditionNumberAndWhatToChange) {
+  // Every sample of the paper program kept (no joint-speed selection): enough samples, but the
+  // plate never rotates, so the plate's and couplers' rotary parameters are barely excited.
+  const RobotConfig cfg = load_robot_config(std::string(DUALV_SOURCE_DIR) + "/config/dualv.yaml");
+  const Recording rec = recording_from_run(paper_run(cfg), cfg.period());
+  IdentifyOptions o;
+  o.torque_delay = drive_latency(cfg);
+  o.min_joint_speed = 0.0;
+  try {
+    identify(cfg.model, standard_parameters(cfg.model, {}), rec, o);
+    FAIL() << "the paper program was accepted as an excitation";
+  } catch (const IdentificationError& e) {
+    const std::string what = e.what();
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(what, m, std::regex("condition number ([0-9.e+]+)"))) << what;
+    EXPECT_GT(std::stod(m[1]), o.max_condition) << what;
+    // The same number as the scaled condition of the recording's own regressor.
+    const BaseParameters base = find_base_parameters(cfg.model);
+    const Observations obs = observations(cfg.model, base, process(rec, o), o);
+    EXPECT_NEAR(std::stod(m[1]), weighted_least_squares(obs).condition, 2e-3 * std::stod(m[1]));
+    EXPECT_NE(what.find("identify.estimation.max_condition"), std::string::npos) << what;
+    EXPECT_NE(what.find("least excited"), std::string::npos) << what;
+    EXPECT_NE(what.find("Use a richer motion"), std::string::npos) << what;
   }
 }
 
