@@ -149,12 +149,14 @@ Identification identify(const model::Model& model, const Eigen::VectorXd& nomina
     for (int k = 0; k < std::min(r, 3); ++k)
       weak += (k ? ", " : "") + id.base.meaning(idx[static_cast<std::size_t>(k)]);
     throw IdentificationError(fmt::format(
-        "the motion is not exciting enough: condition number {:.3g} of the scaled regressor "
+        "the motion is not exciting enough: condition number {} of the scaled regressor "
         "(limit identify.estimation.max_condition = {:.3g}); least excited: {}. Use a richer "
         "motion: the "
         "excitation of `dualv identify` (more harmonics, larger amplitudes in "
         "config/identify.yaml), with rotation of the plate and every joint reversing",
-        id.estimate.condition, o.max_condition, weak));
+        id.estimate.condition < 1e300 ? fmt::format("{:.3g}", id.estimate.condition)
+                                      : std::string("infinite (a base parameter never acts)"),
+        o.max_condition, weak));
   }
   return id;
 }
