@@ -100,14 +100,14 @@ Estimate weighted_least_squares(const Observations& obs) {
     for (std::size_t k = 1; k < obs.t.size(); ++k)
       dt = std::min(dt, obs.t[k] - obs.t[k - 1] > 0.0 ? obs.t[k] - obs.t[k - 1] : 1e300);
     const double T = obs.correlation_time, span = T + (dt < 1e300 ? dt : 0.0);
-    S = g * g.transpose();
+    Eigen::MatrixXd C = Eigen::MatrixXd::Zero(r, r);  // the lagged terms, one side
     for (Eigen::Index k = 0; k < N; ++k)
       for (Eigen::Index j = k + 1; j < N; ++j) {
         const double lag = obs.t[static_cast<std::size_t>(j)] - obs.t[static_cast<std::size_t>(k)];
         if (lag > T) break;
-        const Eigen::MatrixXd c = (1.0 - lag / span) * g.col(k) * g.col(j).transpose();
-        S += c + c.transpose();
+        C.noalias() += ((1.0 - lag / span) * g.col(k)) * g.col(j).transpose();
       }
+    S = g * g.transpose() + C + C.transpose();
     S *= static_cast<double>(3 * N) / dof;
   }
   const Eigen::MatrixXd cov_n = B * S * B.transpose();
