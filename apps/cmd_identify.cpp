@@ -33,6 +33,8 @@ namespace {
 
 using namespace identification;
 
+std::string default_identify_file() { return default_config_dir() + "/identify.yaml"; }
+
 struct IdentifyArgs {
   std::string config;
   std::string log;
@@ -65,6 +67,12 @@ std::string report_table(const Identification& id) {
       "condition number {:.1f} (scaled, weighted regressor), {} equations, torque noise {:.3g} "
       "N m, {:.2f} s of samples\n",
       id.estimate.condition, id.estimate.rows, id.estimate.torque_noise, id.duration);
+  s += fmt::format(
+      "estimator: {}; sigma from the residuals' correlation over {:.3g} s (Newey-West, {:.2f} x "
+      "the white-noise sigma on average)\n",
+      id.estimate.instrumental ? "instrumental variables (the reference motion's regressor)"
+                               : "weighted least squares (no reference in the recording)",
+      id.correlation_time, id.estimate.correlation_factor);
   return s;
 }
 
@@ -163,11 +171,12 @@ int run_identify(const IdentifyArgs& args) {
   const std::string config_path = resolve_config(args.config);
   const RobotConfig cfg = load_robot_config(config_path);
   const BaseParameters base = find_base_parameters(cfg.model);
+  // Like every default of `dualv` (apps/config_path.hpp), identify.yaml and the validation
+  // program come from the default config folder (/etc/dualv when installed), not from the
+  // folder of a -c file. The shipped identify.yaml is complete: it is required.
   const std::string identify_path =
-      args.identify_config.empty()
-          ? (std::filesystem::path(config_path).parent_path() / "identify.yaml").string()
-          : args.identify_config;
-  const IdentifyConfig icfg = load_identify_config(identify_path, args.identify_config.empty());
+      args.identify_config.empty() ? default_identify_file() : args.identify_config;
+  const IdentifyConfig icfg = load_identify_config(identify_path);
   IdentifyOptions options = icfg.estimation;
   options.torque_delay = args.torque_delay >= 0.0 ? args.torque_delay
                          : icfg.torque_delay      ? *icfg.torque_delay
@@ -190,7 +199,10 @@ int run_identify(const IdentifyArgs& args) {
         ex.program.duration(), base.size(), ex.condition);
     Variant v;
     v.name = "excitation";
-    const RunResult run = run_in_process(cfg, ex.program, v);
+    const RobotConfig run_cfg = icfg.for_excitation_run(cfg);
+    fmt::print("identify: excitation run with kp {:g}, kd {:g} (identify.run)\n",
+               run_cfg.control.controller.kp[0], run_cfg.control.controller.kd[0]);
+    const RunResult run = run_in_process(run_cfg, ex.program, v);
     if (!run.ok) fmt::print("identify: the excitation run stopped early: {}\n", run.failure);
     rec = recording_from_run(run, cfg.period());
   }
@@ -219,10 +231,7 @@ int run_identify(const IdentifyArgs& args) {
     trajectory::ProgramContext ctx;
     ctx.start = cfg.model.home;
     ctx.home = cfg.model.home;
-    const std::string program_file =
-        args.validation_program.empty()
-            ? std::filesystem::path(config_path).parent_path().string() + "/paper.yaml"
-            : args.validation_program;
+    const std::string program_file = resolve_program(args.validation_program);
     const trajectory::Program program = trajectory::load_program_file(program_file, ctx);
     Variant v;
     v.name = "validation";
@@ -274,9 +283,10 @@ void register_identify_command(CLI::App& app) {
   cmd->add_option("--log", args->log, "Identify from a logged run: CSV of `dualv run` or .lcmlog");
   cmd->add_option("--out", args->out, "Output folder (default out/identify-<date>-<time>)");
   cmd->add_option("--validate", args->validation_program,
-                  "Program for the validation run (default: paper.yaml beside the config)");
+                  "Program for the validation run (default: " + default_program_file() + ")");
   cmd->add_option("--identify-config", args->identify_config,
-                  "Excitation and estimation settings (default: identify.yaml beside the config)");
+                  "Excitation, estimation and excitation-run gain settings (default: " +
+                      default_identify_file() + ")");
   cmd->add_option("--cutoff", args->cutoff_hz, "Zero-phase low-pass cutoff [Hz] (default 50)");
   cmd->add_option("--decimation", args->decimation, "Keep every k-th filtered sample (default 4)");
   cmd->add_option("--torque-delay", args->torque_delay,

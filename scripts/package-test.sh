@@ -2,7 +2,8 @@
 # Builds the dualv .deb, installs it on this machine with dpkg -i, verifies the installed
 # systemd unit (systemd-analyze verify, when installed), and runs the installed binary:
 # `dualv --version`, then (when the binary has a `run` command) a short simulated
-# `dualv run` that must find its configuration in /etc/dualv. Removes the package again at the end unless --keep.
+# `dualv run` that must find its configuration in /etc/dualv, and `dualv identify`, which must
+# find identify.yaml and paper.yaml there. Removes the package again at the end unless --keep.
 #
 #   scripts/package-test.sh [--keep] [--build DIR] [--jobs N]
 #
@@ -50,7 +51,8 @@ deb=$(ls -t "$build"/dualv_*.deb 2>/dev/null | head -n 1)
 say "built $(basename "$deb")"
 
 contents=$(dpkg-deb --contents "$deb")
-for f in ./usr/bin/dualv ./etc/dualv/dualv.yaml ./etc/default/dualv \
+for f in ./usr/bin/dualv ./etc/dualv/dualv.yaml ./etc/dualv/identify.yaml ./etc/default/dualv \
+  ./usr/share/dualv/plot_run.py ./usr/share/dualv/plot_identification.py \
   ./usr/lib/systemd/system/dualv.service ./usr/lib/systemd/network/80-can0.network \
   ./usr/share/doc/dualv/DEPLOYMENT.md ./usr/share/dualv/eds/dualv-emulated-drive.eds; do
   grep -q " $f\$" <<<"$contents" || fail "$f missing from the package"
@@ -115,6 +117,26 @@ if "$dualv" run --help >/dev/null 2>&1; then
   rm -rf "$work"
 else
   say "dualv run not in this build yet: skipped the simulated run"
+fi
+# `dualv identify` finds its settings and the validation program in /etc/dualv (issue 16):
+# the excitation, the estimation and the report from the installed files alone.
+if "$dualv" identify --help >/dev/null 2>&1; then
+  grep -q "/etc/dualv/identify.yaml" <<<"$("$dualv" identify --help 2>&1)" ||
+    fail "identify --help does not name /etc/dualv/identify.yaml"
+  work=$(mktemp -d)
+  say "dualv identify from the installed binary in $work"
+  if ! (cd "$work" && env -u DUALV_CONFIG timeout 900 "$dualv" identify --out "$work/out" \
+    >"$work/identify.log" 2>&1); then
+    tail -n 30 "$work/identify.log" >&2
+    fail "dualv identify from the installed package failed"
+  fi
+  for f in report.txt identified.yaml validation_torques.csv tracking.txt; do
+    [[ -s "$work/out/$f" ]] || fail "dualv identify wrote no $f"
+  done
+  grep -q "/etc/dualv/paper.yaml" "$work/identify.log" ||
+    fail "dualv identify did not validate on /etc/dualv/paper.yaml"
+  tail -n 3 "$work/identify.log"
+  rm -rf "$work"
 fi
 if "$dualv" check-target --help >/dev/null 2>&1; then
   # Exit code 1 is expected on a build machine (no PREEMPT_RT, no can0).

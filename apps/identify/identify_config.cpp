@@ -53,7 +53,15 @@ IdentifyConfig load_identify_config(const std::string& path, bool optional) {
     o.trim = s.non_negative("trim", o.trim);
     o.min_duration = s.positive("min_duration", o.min_duration);
     o.max_condition = s.positive("max_condition", o.max_condition);
+    o.instruments = s.boolean("instruments", o.instruments);
+    o.correlation_periods = s.non_negative("correlation_periods", o.correlation_periods);
     s.reject_unknown_keys();
+  }
+  {
+    YamlReader g = r.child("run", false);
+    if (g.has("kp")) c.run_kp = g.positive("kp");
+    if (g.has("kd")) c.run_kd = g.positive("kd");
+    g.reject_unknown_keys();
   }
   r.reject_unknown_keys();
   problems.finish();

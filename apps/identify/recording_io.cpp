@@ -19,6 +19,7 @@ identification::Recording recording_from_run(const RunResult& run, double period
   for (const Row& row : run.rows) {
     rec.t.push_back(row.t);
     rec.X.push_back(row.X);
+    rec.X_ref.push_back(row.X_d);
     model::JointVector tau(run.n);
     for (int i = 0; i < run.n; ++i) tau[i] = row.tau[i];
     rec.tau.push_back(tau);
@@ -52,6 +53,8 @@ identification::Recording read_csv(const std::string& path) {
     return -1;
   };
   const int it = col("t"), ix = col("x"), iy = col("y"), ith = col("theta");
+  const int ixd = col("x_d"), iyd = col("y_d"), ithd = col("theta_d");
+  const bool has_ref = ixd >= 0 && iyd >= 0 && ithd >= 0;
   std::vector<int> itau;
   for (int i = 1; col(fmt::format("tau{}", i)) >= 0; ++i)
     itau.push_back(col(fmt::format("tau{}", i)));
@@ -72,6 +75,9 @@ identification::Recording read_csv(const std::string& path) {
     rec.t.push_back(v[static_cast<std::size_t>(it)]);
     rec.X.emplace_back(v[static_cast<std::size_t>(ix)], v[static_cast<std::size_t>(iy)],
                        v[static_cast<std::size_t>(ith)]);
+    if (has_ref)
+      rec.X_ref.emplace_back(v[static_cast<std::size_t>(ixd)], v[static_cast<std::size_t>(iyd)],
+                             v[static_cast<std::size_t>(ithd)]);
     model::JointVector tau(static_cast<int>(itau.size()));
     for (std::size_t i = 0; i < itau.size(); ++i)
       tau[static_cast<int>(i)] = v[static_cast<std::size_t>(itau[i])];
@@ -98,6 +104,7 @@ identification::Recording read_lcm(const std::string& path) {
     last_cycle = s.cycle;
     run.t.push_back(s.t);
     run.X.emplace_back(s.X[0], s.X[1], s.X[2]);
+    run.X_ref.emplace_back(s.X_d[0], s.X_d[1], s.X_d[2]);
     model::JointVector tau(s.n);
     for (int i = 0; i < s.n; ++i) tau[i] = s.tau_cmd[static_cast<std::size_t>(i)];
     run.tau.push_back(tau);

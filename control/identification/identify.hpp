@@ -9,7 +9,10 @@
 //   -> decimation (the filtered rows are not independent), samples with a joint near rest
 //      dropped (the sign of its Coulomb friction is unknown there)
 //   -> y_k = Jm^T tau_k = W_1 phi_b (the actuated projection: internal torques are invisible)
-//   -> weighted least squares (estimation.hpp)
+//   -> weighted least squares (estimation.hpp) with the reference motion's regressor as
+//      instruments when the recording has the reference (the closed loop's torques react to
+//      the encoder noise that W carries: plain least squares is biased), and a covariance that
+//      accounts for the filtered residuals' correlation
 //
 // A recording too short or not exciting enough is refused (IdentificationError) with what to
 // change.
@@ -30,6 +33,8 @@ struct Recording {
   std::vector<double> t;                // [s]
   std::vector<model::Pose> X;           // measured plate pose
   std::vector<model::JointVector> tau;  // torque sent to the motors [N m]
+  // The reference pose the controller followed (X_d of the logs); empty when unknown.
+  std::vector<model::Pose> X_ref;
   std::size_t size() const noexcept { return t.size(); }
 };
 
@@ -42,6 +47,11 @@ struct IdentifyOptions {
   double trim = 0.05;             // [s] dropped at each end (filter edges)
   double min_duration = 1.0;      // [s] of usable samples, at least
   double max_condition = 500.0;   // refuse a scaled condition number above this
+  // Instrumental variables from the reference motion (when the recording has it).
+  bool instruments = true;
+  // Residuals closer in time than correlation_periods / cutoff_hz are treated as correlated in
+  // the covariance (Newey-West, estimation.hpp); 0: white residuals (optimistic sigma).
+  double correlation_periods = 3.0;
 };
 
 class IdentificationError : public std::runtime_error {
@@ -55,6 +65,9 @@ struct ProcessedRecording {
   std::vector<model::Pose> X;
   std::vector<model::Twist> X_dot, X_dd;
   std::vector<model::JointVector> tau;  // filtered and shifted by the latency
+  // The reference motion, filtered and differentiated alike (empty when not recorded).
+  std::vector<model::Pose> X_ref;
+  std::vector<model::Twist> X_ref_dot, X_ref_dd;
 };
 ProcessedRecording process(const Recording& rec, const IdentifyOptions& options);
 
@@ -66,8 +79,9 @@ Observations observations(const model::Model& model, const BaseParameters& base,
 struct Identification {
   BaseParameters base;
   Estimate estimate;
-  Eigen::VectorXd nominal;  // base parameters of the nominal model and friction
-  double duration = 0.0;    // [s] of samples used
+  Eigen::VectorXd nominal;        // base parameters of the nominal model and friction
+  double duration = 0.0;          // [s] of samples used
+  double correlation_time = 0.0;  // [s] of the Newey-West sigma (0: white residuals)
 };
 
 // Throws IdentificationError (too short, too few moving samples, condition number too high:
