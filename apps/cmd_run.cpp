@@ -31,6 +31,7 @@
 #include "runtime/channels.hpp"
 #include "runtime/command_auth.hpp"
 #include "runtime/command_channel.hpp"
+#include "runtime/replay_state.hpp"
 #include "runtime/service_notifier.hpp"
 #include "runtime/telemetry_publisher.hpp"
 #include "safety/fault_log.hpp"
@@ -54,6 +55,7 @@ struct RunArgs {
   std::string lcm;
   std::string commands;
   std::string keys;
+  std::string replay_state;
   bool serve = false;
 };
 
@@ -240,9 +242,9 @@ int run(const RunArgs& args) {
   // systemd's Type=notify protocol (does nothing outside systemd): READY=1 once set-up is done.
   runtime::ServiceNotifier service;
   RobotConfig cfg = load_robot_config(resolve_config(args.config));
-  if (args.rate_hz > 0.0) cfg.loop.period_ns = static_cast<std::int64_t>(1e9 / args.rate_hz + 0.5);
-  const std::string program_file =
-      args.program.empty() ? default_config_dir() + "/paper.yaml" : args.program;
+  // --rate: the rate-dependent checks again (SYNC, filter, safety times, bus load on CAN).
+  if (args.rate_hz > 0.0) override_rate(cfg, args.rate_hz, !args.can.empty());
+  const std::string program_file = resolve_program(args.program);
   trajectory::ProgramContext ctx;
   ctx.start = cfg.model.home;
   ctx.home = cfg.model.home;
@@ -315,19 +317,24 @@ int run(const RunArgs& args) {
   std::unique_ptr<runtime::CommandChannel> commands;
   const std::string command_url = !args.commands.empty() ? args.commands : args.lcm;
   if (!command_url.empty()) {
-    const std::string key_dir = args.keys.empty() ? default_config_dir() + "/keys" : args.keys;
+    const std::string key_dir = resolve_keys_dir(args.keys);
     std::vector<runtime::CommandKey> keys;
     if (std::filesystem::is_directory(key_dir)) {
       std::vector<std::string> warnings;
       keys = runtime::load_command_keys(key_dir, &warnings);
       for (const auto& w : warnings) fmt::print(stderr, "dualv run: {}\n", w);
     }
+    // Signed commands are refused as replays across restarts too (issue 14, defect 5).
+    runtime::CommandAuthConfig auth;
+    auth.replay_state_file = resolve_replay_state(args.replay_state);
+    const std::string first_use = runtime::create_replay_state_on_first_use(auth.replay_state_file);
+    if (!first_use.empty()) fmt::print("dualv run: {}\n", first_use);
     fmt::print(
         "dualv run: listening for operator commands on {} ({} key(s) from {}; e-stop needs "
-        "none)\n",
-        command_url, keys.size(), key_dir);
-    commands = std::make_unique<runtime::CommandChannel>(command_url,
-                                                         runtime::CommandVerifier(std::move(keys)));
+        "none; replay state {})\n",
+        command_url, keys.size(), key_dir, auth.replay_state_file);
+    commands = std::make_unique<runtime::CommandChannel>(
+        command_url, runtime::CommandVerifier(std::move(keys), auth));
     commands->set_setpoint_check(setpoint_check(cfg));
     commands->start();
   }
@@ -372,7 +379,8 @@ int run(const RunArgs& args) {
       variants.clear();
       variants.push_back(paper_variants().front());
     }
-    const drivers::CanConfig can = drivers::load_can_config_file(cfg.path);
+    drivers::CanConfig can = drivers::load_can_config_file(cfg.path);
+    can.sync_period_ns = cfg.can.sync_period_ns;  // --rate moves the SYNC with the loop
     rpdo_deadline_ns = can.rpdo_deadline_ns;
     drivers::CanopenSetupOptions opts;
     opts.interface = args.can;
@@ -491,10 +499,13 @@ void register_run_command(CLI::App& app) {
                                  "on the in-process simulation)");
   static RunArgs args;
   add_config_option(*cmd, args.config);
-  cmd->add_option("-p,--program", args.program,
-                  "Program YAML (default: paper.yaml beside the config)");
+  cmd->add_option("-p,--program", args.program, program_help());
   cmd->add_option("-o,--out", args.out, "Output folder (default: out/run-<date>-<time>)");
-  cmd->add_option("--rate", args.rate_hz, "Control rate [Hz] (default: loop.rate_hz)")
+  cmd->add_option("--rate", args.rate_hz,
+                  "Control rate [Hz] (default: loop.rate_hz); the SYNC period follows, and the "
+                  "checks that depend on the rate run again (velocity filter below Nyquist, "
+                  "plant rate, safety times of at least a cycle, can: deadlines, bus load on "
+                  "--can)")
       ->check(CLI::Range(10.0, 20000.0));
   cmd->add_option("--variant", args.variants,
                   "Run only these variants: retimed, original, retimed-no-projection, "
@@ -516,7 +527,8 @@ void register_run_command(CLI::App& app) {
                 "Wait for signed `dualv start PROGRAM` commands and run them (the service mode); "
                 "`dualv start stream` follows signed setpoints from `dualv stream` until a signed "
                 "stop, or stops (SS1) when they cease for safety.watchdogs.command_stream_timeout");
-  cmd->add_option("--keys", args.keys, "Folder of command keys (default: <config dir>/keys)");
+  cmd->add_option("--keys", args.keys, keys_help());
+  cmd->add_option("--replay-state", args.replay_state, replay_state_help());
   cmd->add_flag("--yes-move-hardware", args.move_hardware,
                 "Confirm that --can on a real (non-vcan) interface may move the robot");
   cmd->callback([] { exit_code() = run(args); });

@@ -6,9 +6,16 @@
 // fixed when the binary is built (DUALV_CONFIG_DIR in apps/CMakeLists.txt: the source tree's
 // config/ for a developer build, /etc/dualv for the installed package), and the help texts
 // below print it, so `--help` says where a default really comes from (issue 14, defect 7).
+//
+// The replay state of signed commands (runtime/replay_state.hpp, docs/safety.md "Signed
+// commands"): --replay-state FILE, else replay.state in $STATE_DIRECTORY (systemd sets it from
+// the unit's StateDirectory=: /var/lib/dualv for packaging/systemd/dualv.service), else
+// $XDG_STATE_HOME/dualv/replay.state, else $HOME/.local/state/dualv/replay.state (a
+// development run).
 #include <CLI/CLI.hpp>
 #include <cstdlib>
 #include <filesystem>
+#include <stdexcept>
 #include <string>
 
 #ifndef DUALV_DEFAULT_CONFIG_DIR
@@ -21,6 +28,21 @@ inline std::string default_config_dir() { return DUALV_DEFAULT_CONFIG_DIR; }
 inline std::string default_program_file() { return default_config_dir() + "/paper.yaml"; }
 inline std::string default_keys_dir() { return default_config_dir() + "/keys"; }
 
+// The default replay state file in this environment; empty when none of $STATE_DIRECTORY,
+// $XDG_STATE_HOME and $HOME is set (then --replay-state must be given).
+inline std::string default_replay_state_file() {
+  auto env = [](const char* name) -> std::string {
+    const char* v = std::getenv(name);
+    return v != nullptr ? v : "";
+  };
+  // systemd joins several StateDirectory= folders with ':'; the first is the unit's own.
+  if (const std::string d = env("STATE_DIRECTORY"); !d.empty())
+    return d.substr(0, d.find(':')) + "/replay.state";
+  if (const std::string d = env("XDG_STATE_HOME"); !d.empty()) return d + "/dualv/replay.state";
+  if (const std::string d = env("HOME"); !d.empty()) return d + "/.local/state/dualv/replay.state";
+  return {};
+}
+
 inline std::string config_help() {
   return "Robot configuration YAML (default: $DUALV_CONFIG, else " + default_config_dir() +
          "/dualv.yaml)";
@@ -30,6 +52,14 @@ inline std::string program_help() {
 }
 inline std::string keys_help() {
   return "Folder of command keys (default: " + default_keys_dir() + ")";
+}
+
+inline std::string replay_state_help() {
+  const std::string now = default_replay_state_file();
+  return "Replay state of signed commands: the highest sequence accepted per key, kept across "
+         "restarts (default: $STATE_DIRECTORY/replay.state under systemd, else "
+         "$XDG_STATE_HOME/dualv/replay.state, else ~/.local/state/dualv/replay.state; here: " +
+         (now.empty() ? std::string("none, give --replay-state") : now) + ")";
 }
 
 inline void add_config_option(CLI::App& cmd, std::string& config) {
@@ -48,6 +78,17 @@ inline std::string resolve_program(const std::string& given) {
 
 inline std::string resolve_keys_dir(const std::string& given) {
   return given.empty() ? default_keys_dir() : given;
+}
+
+// Throws std::runtime_error (what to give) when there is no default.
+inline std::string resolve_replay_state(const std::string& given) {
+  if (!given.empty()) return given;
+  std::string file = default_replay_state_file();
+  if (file.empty())
+    throw std::runtime_error(
+        "no default replay state file ($STATE_DIRECTORY, $XDG_STATE_HOME and $HOME are unset): "
+        "give --replay-state FILE");
+  return file;
 }
 
 // A program named in a signed start (`dualv start NAME`): NAME as a path, else NAME or

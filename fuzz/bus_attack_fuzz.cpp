@@ -31,6 +31,7 @@
 #include "fuzz/check.hpp"
 #include "fuzz/frame_input.hpp"
 #include "sim/in_process_can_rig.hpp"
+#include "tests/support/can_rig_time.hpp"
 
 namespace fw = dualv::fw;
 namespace drivers = dualv::drivers;
@@ -62,31 +63,8 @@ const dualv::trajectory::Program& paper() {
   return p;
 }
 
-class RigClock final : public drivers::canopen::Clock {
- public:
-  explicit RigClock(const dualv::sim::InProcessCanRig& rig) : rig_(rig) {}
-  std::uint64_t now_ns() const noexcept override { return rig_.now_ns(); }
-
- private:
-  const dualv::sim::InProcessCanRig& rig_;
-};
-
-// Set-up waits run the emulator in 0.1 ms steps of simulated time.
-class RigWaiter final : public drivers::canopen::Waiter {
- public:
-  explicit RigWaiter(dualv::sim::InProcessCanRig& rig) : rig_(rig) {}
-  void wait_until(std::uint64_t deadline_ns) override {
-    const std::uint64_t now = rig_.now_ns();
-    if (deadline_ns <= now) {
-      rig_.exchange();
-      return;
-    }
-    rig_.step(std::min<std::uint64_t>(100'000, deadline_ns - now));
-  }
-
- private:
-  dualv::sim::InProcessCanRig& rig_;
-};
+using dualv::test::RigClock;
+using dualv::test::RigWaiter;
 
 // The largest |per mille| the safety limit allows on drive i: safety.torque.max in per mille
 // of the rated torque, plus the half per mille the wire's rounding adds.

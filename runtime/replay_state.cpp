@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 
 namespace dualv::runtime {
 
@@ -109,7 +110,9 @@ std::string save_replay_state(const std::string& path, const ReplayMarks& marks)
   }
   text += fmt::format("end {}\n", count);
 
-  const std::string tmp = path + ".tmp";
+  // One temporary file per process: two processes saving at once never write into the
+  // same one (the last rename wins, each file whole).
+  const std::string tmp = fmt::format("{}.tmp.{}", path, ::getpid());
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
   if (fd < 0) return fmt::format("cannot create {}: {}", tmp, std::strerror(errno));
   const bool written = write_all(fd, text) && ::fsync(fd) == 0;
@@ -133,6 +136,22 @@ std::string save_replay_state(const std::string& path, const ReplayMarks& marks)
     ::close(dfd);
   }
   return {};
+}
+
+std::string create_replay_state_on_first_use(const std::string& path) {
+  namespace fs = std::filesystem;
+  fs::path dir = fs::path(path).parent_path();
+  if (dir.empty()) dir = ".";
+  std::error_code ec;
+  if (fs::exists(dir, ec)) return {};
+  fs::create_directories(dir, ec);
+  if (ec)
+    throw std::runtime_error(fmt::format("replay state {}: cannot create the folder {}: {}", path,
+                                         dir.string(), ec.message()));
+  fs::permissions(dir, fs::perms::owner_all, ec);  // the marks are the operators' business
+  if (const std::string err = save_replay_state(path, {}); !err.empty())
+    throw std::runtime_error(fmt::format("replay state {}: {}", path, err));
+  return fmt::format("replay state {}: created empty (first use: its folder did not exist)", path);
 }
 
 }  // namespace dualv::runtime

@@ -8,6 +8,10 @@
 // Format (text): "dualv-replay-state 1", then one line per mark "command <key hex> <seq>" or
 // "setpoint <key hex> <seq>" (the key id in hex: any printable id survives), then
 // "end <number of marks>": a file cut short or edited is detected as corrupt.
+//
+// Where the file lives: `dualv run --replay-state FILE` (apps/config_path.hpp has the default:
+// /var/lib/dualv/replay.state for the packaged service, created empty by packaging/postinst at
+// the first install).
 #include <cstdint>
 #include <map>
 #include <string>
@@ -30,5 +34,12 @@ struct LoadedReplayState {
 LoadedReplayState load_replay_state(const std::string& path);
 // Returns an empty string on success, else why it failed (the old file is left in place).
 std::string save_replay_state(const std::string& path, const ReplayMarks& marks);
+
+// A first use: when the folder of `path` does not exist yet, nothing was ever accepted there,
+// so the folder (0700) and an empty state are created; returns what was done, for the log.
+// When the folder exists, does nothing and returns "": a missing file there is a lost state
+// (CommandAuthConfig::replay_state_file). Throws std::runtime_error naming the path and the
+// reason when the folder or the file cannot be created.
+std::string create_replay_state_on_first_use(const std::string& path);
 
 }  // namespace dualv::runtime

@@ -26,7 +26,70 @@ const char* section_purpose(const std::string& name) {
   return "";
 }
 
+// The cross-checks that depend on the loop rate, for the file's rate at load and for
+// `--rate` (override_rate); `rate_name` says which rate ("loop.rate_hz" or "--rate").
+std::vector<std::string> rate_problems(const RobotConfig& cfg, const std::string& rate_name) {
+  std::vector<std::string> problems;
+  const std::string& path = cfg.path;
+  // A filter above Nyquist aliases, a plant coarser than the loop cannot apply a command per
+  // cycle, and the bus must carry one SYNC per control cycle.
+  const double rate = cfg.rate_hz();
+  const double period = cfg.period();
+  const double cutoff = cfg.control.estimator.velocity_cutoff_hz;
+  if (!(cutoff < 0.5 * rate))
+    problems.push_back(
+        fmt::format("{}: controller.velocity_cutoff_hz: must be below the loop's Nyquist rate "
+                    "{} / 2 = {} Hz (got {})",
+                    path, rate_name, 0.5 * rate, cutoff));
+  const double plant_rate = 1.0 / cfg.plant.max_step;
+  if (plant_rate < rate * (1.0 - 1e-9))
+    problems.push_back(fmt::format("{}: plant.integration_rate: must be >= {} = {} Hz (got {})",
+                                   path, rate_name, rate, plant_rate));
+  const auto sync_ns = static_cast<double>(cfg.can.sync_period_ns);
+  if (std::abs(sync_ns - static_cast<double>(cfg.loop.period_ns)) > 0.5)
+    problems.push_back(fmt::format("{}: can.sync.period: must equal 1 / {} = {} s (got {} s)", path,
+                                   rate_name, period, sync_ns * 1e-9));
+  // The safety layer counts these in whole cycles (safety/safety_filter.cpp cycle_limits):
+  // shorter than a cycle, a time would silently become one cycle, longer than configured.
+  const std::pair<const char*, double> times[] = {
+      {"safety.ss1.max_time", cfg.safety.ss1.max_time},
+      {"safety.ss1.standstill_time", cfg.safety.ss1.standstill_time},
+      {"safety.watchdogs.command_stream_timeout", cfg.safety.watchdogs.command_stream_timeout},
+  };
+  for (const auto& [key, t] : times)
+    if (t < period * (1.0 - 1e-9))
+      problems.push_back(fmt::format(
+          "{}: {}: must last at least one control cycle, 1 / {} = {} s (got {} s): the safety "
+          "layer counts it in whole cycles",
+          path, key, rate_name, period, t));
+  return problems;
+}
+
 }  // namespace
+
+void override_rate(RobotConfig& cfg, double rate_hz, bool on_bus) {
+  if (!(std::isfinite(rate_hz) && rate_hz > 0.0))
+    throw ConfigError({fmt::format("--rate: must be a positive number of Hz (got {})", rate_hz)});
+  RobotConfig c = cfg;
+  c.loop.period_ns = static_cast<std::int64_t>(1e9 / rate_hz + 0.5);
+  c.can.sync_period_ns = static_cast<std::uint64_t>(c.loop.period_ns);
+  c.trajectory.limits.loop_period = c.period();
+  const std::string rate_name = fmt::format("--rate {}", rate_hz);
+  std::vector<std::string> problems = rate_problems(c, rate_name);
+  // The `can:` rules that involve the SYNC period, and the bus's capacity when it is used.
+  auto can_rules = [&](const std::function<void()>& check) {
+    try {
+      check();
+    } catch (const ConfigError& e) {
+      for (const auto& p : e.problems())
+        problems.push_back(fmt::format("{}: {} (with {} Hz)", c.path, p, rate_name));
+    }
+  };
+  can_rules([&] { drivers::validate(c.can); });
+  if (on_bus) can_rules([&] { (void)drivers::require_bus_load_fits(c.can); });
+  if (!problems.empty()) throw ConfigError(problems);
+  cfg = std::move(c);
+}
 
 std::vector<std::string> check_robot_config(const std::string& path) {
   try {
@@ -125,30 +188,12 @@ RobotConfig load_robot_config(const std::string& path) {
     };
     for (const auto& [what, bad] : checks)
       if (bad) problems.push_back(fmt::format("{}: {}", path, what));
-    // Rates: a filter above Nyquist aliases, a plant coarser than the loop cannot apply a
-    // command per cycle, and the bus must carry one SYNC per control cycle.
-    const double rate = cfg.rate_hz();
-    const double cutoff = cfg.control.estimator.velocity_cutoff_hz;
-    if (!(cutoff < 0.5 * rate))
-      problems.push_back(
-          fmt::format("{}: controller.velocity_cutoff_hz: must be below the loop's Nyquist rate "
-                      "loop.rate_hz / 2 = {} Hz (got {})",
-                      path, 0.5 * rate, cutoff));
-    const double plant_rate = 1.0 / cfg.plant.max_step;
-    if (plant_rate < rate * (1.0 - 1e-9))
-      problems.push_back(
-          fmt::format("{}: plant.integration_rate: must be >= loop.rate_hz = {} Hz (got {})", path,
-                      rate, plant_rate));
+    for (auto& p : rate_problems(cfg, "loop.rate_hz")) problems.push_back(std::move(p));
     if (cfg.plant.saturation.peak_torque < s.torque.max)
       problems.push_back(fmt::format(
           "{}: safety.torque.max: must not exceed the drives' peak plant.saturation.peak_torque "
           "= {} N m (got {})",
           path, cfg.plant.saturation.peak_torque, s.torque.max));
-    const auto sync_ns = static_cast<double>(cfg.can.sync_period_ns);
-    if (std::abs(sync_ns - static_cast<double>(cfg.loop.period_ns)) > 0.5)
-      problems.push_back(
-          fmt::format("{}: can.sync.period: must equal 1 / loop.rate_hz = {} s (got {} s)", path,
-                      static_cast<double>(cfg.loop.period_ns) * 1e-9, sync_ns * 1e-9));
   }
   if (!problems.empty()) throw ConfigError(problems);
   cfg.trajectory.limits.loop_period = cfg.period();  // pre-flight at the loop rate

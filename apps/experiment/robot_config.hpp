@@ -46,4 +46,14 @@ RobotConfig load_robot_config(const std::string& path);
 // Every problem of the file (empty when it loads), for `dualv config check`.
 std::vector<std::string> check_robot_config(const std::string& path);
 
+// `dualv run --rate HZ`: the loop at another rate than the file's loop.rate_hz. The SYNC
+// period follows (the SYNC is the control cycle: can.sync.period = 1 / rate), pre-flight
+// samples at the new period, and every check that depends on the rate runs again, as at load:
+// the velocity filter below Nyquist, the plant's integration rate, the times the safety layer
+// counts in whole cycles (at least one cycle each), the `can:` rules on the SYNC period
+// (can.rpdo_deadline, can.timeouts.transition) and, when the run drives the bus (`on_bus`),
+// the worst-case bus load within can.max_bus_load. Throws ConfigError naming the file, the
+// key and --rate; `cfg` is unchanged then.
+void override_rate(RobotConfig& cfg, double rate_hz, bool on_bus);
+
 }  // namespace dualv::apps

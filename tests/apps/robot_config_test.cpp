@@ -193,5 +193,79 @@ TEST(RobotConfig, EmptyBinaryAndForeignFilesSaySo) {
                           {"/nonexistent/dualv.yaml", "cannot open file"}));
 }
 
+// `dualv run --rate HZ` (override_rate): the checks that depend on the rate run again, naming
+// the key and --rate; the thresholds below are hand-computed from config/dualv.yaml.
+std::vector<std::string> override_problems(double rate_hz, bool on_bus) {
+  RobotConfig cfg = load_robot_config(kShipped);
+  const RobotConfig before = cfg;
+  try {
+    override_rate(cfg, rate_hz, on_bus);
+  } catch (const ConfigError& e) {
+    // Refused: nothing of the configuration changed.
+    EXPECT_EQ(cfg.loop.period_ns, before.loop.period_ns);
+    EXPECT_EQ(cfg.can.sync_period_ns, before.can.sync_period_ns);
+    return e.problems();
+  }
+  return {};
+}
+
+TEST(RobotConfigRate, AcceptedRateMovesTheSyncAndThePreflightPeriodWithTheLoop) {
+  RobotConfig cfg = load_robot_config(kShipped);
+  override_rate(cfg, 800.0, true);
+  EXPECT_EQ(cfg.loop.period_ns, 1'250'000);
+  EXPECT_EQ(cfg.can.sync_period_ns, 1'250'000u);
+  EXPECT_DOUBLE_EQ(cfg.trajectory.limits.loop_period, 0.00125);
+  // The paper's 10 kHz stays possible in simulation (plant.integration_rate 10000 Hz), not
+  // on the bus (below).
+  RobotConfig sim = load_robot_config(kShipped);
+  EXPECT_NO_THROW(override_rate(sim, 10000.0, false));
+}
+
+TEST(RobotConfigRate, VelocityFilterMustStayBelowTheNewNyquistRate) {
+  // velocity_cutoff_hz: 250 -> the loop must run above 500 Hz.
+  EXPECT_TRUE(has_problem(override_problems(500.0, false),
+                          {"dualv.yaml: controller.velocity_cutoff_hz: must be below the loop's "
+                           "Nyquist rate --rate 500 / 2 = 250 Hz (got 250)"}));
+  EXPECT_TRUE(override_problems(501.0, false).empty());
+}
+
+TEST(RobotConfigRate, PlantMustIntegrateAtLeastAtTheNewRate) {
+  // plant.integration_rate: 10000 Hz.
+  EXPECT_TRUE(has_problem(override_problems(10001.0, false),
+                          {"plant.integration_rate: must be >= --rate 10001"}));
+}
+
+TEST(RobotConfigRate, SafetyTimesCountedInCyclesMustLastACycle) {
+  // safety.ss1.standstill_time 0.01 s: at most 100 Hz; the filter (250 Hz) refuses first
+  // anyway, both are reported.
+  const auto p = override_problems(99.0, false);
+  EXPECT_TRUE(has_problem(p, {"safety.ss1.standstill_time: must last at least one control "
+                              "cycle, 1 / --rate 99"}));
+  EXPECT_TRUE(has_problem(p, {"controller.velocity_cutoff_hz"}));
+  EXPECT_FALSE(has_problem(override_problems(100.0, false), {"safety.ss1.standstill_time"}));
+  // command_stream_timeout 0.1 s: exactly one cycle at 10 Hz is enough, 9 Hz is not.
+  EXPECT_FALSE(
+      has_problem(override_problems(10.0, false), {"safety.watchdogs.command_stream_timeout"}));
+  EXPECT_TRUE(has_problem(override_problems(9.0, false),
+                          {"safety.watchdogs.command_stream_timeout: must last at least one"}));
+}
+
+TEST(RobotConfigRate, CanDeadlinesFollowTheSyncPeriod) {
+  // can.rpdo_deadline 0.01 s must be longer than the SYNC period: refused at 100 Hz and below.
+  EXPECT_TRUE(has_problem(override_problems(100.0, false),
+                          {"dualv.yaml: can.rpdo_deadline: must be longer than can.sync.period",
+                           "(with --rate 100 Hz)"}));
+}
+
+TEST(RobotConfigRate, BusLoadIsCheckedWhenTheRunDrivesTheBus) {
+  // DESIGN.md "CAN contract": 895 bits per cycle worst case; 95 % of 1 Mbit/s carries
+  // 950000 / 895 = 1061.45 cycles/s.
+  EXPECT_TRUE(override_problems(1061.0, true).empty());
+  EXPECT_TRUE(
+      has_problem(override_problems(1062.0, true),
+                  {"dualv.yaml: can.sync.period: 1062.0 Hz needs", "(with --rate 1062 Hz)"}));
+  EXPECT_TRUE(override_problems(1062.0, false).empty()) << "in-process: no bus to load";
+}
+
 }  // namespace
 }  // namespace dualv::apps

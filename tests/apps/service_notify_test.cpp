@@ -24,7 +24,7 @@
 #include <thread>
 #include <vector>
 
-extern char** environ;
+#include "tests/support/dualv_process.hpp"
 
 namespace {
 
@@ -109,64 +109,15 @@ class NotifySocket {
 };
 
 // A `dualv` process with NOTIFY_SOCKET and WATCHDOG_USEC set, its output in a log file.
-class Dualv {
+class Dualv : public dualv::test::DualvProcess {
  public:
-  Dualv(std::vector<std::string> args, const std::string& notify_socket, const fs::path& log) {
-    args.insert(args.begin(), kDualv);
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    std::vector<std::string> env;
-    for (char** e = environ; *e; ++e) {
-      const std::string v = *e;
-      if (v.rfind("NOTIFY_SOCKET=", 0) != 0 && v.rfind("WATCHDOG_", 0) != 0) env.push_back(v);
-    }
-    env.push_back("NOTIFY_SOCKET=" + notify_socket);
-    env.push_back(std::string("WATCHDOG_USEC=") + kWatchdogUsec);
-    std::vector<char*> envp;
-    for (auto& e : env) envp.push_back(e.data());
-    envp.push_back(nullptr);
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_adddup2(&actions, 1, 2);
-    if (posix_spawn(&pid_, kDualv.c_str(), &actions, nullptr, argv.data(), envp.data()) != 0)
-      pid_ = -1;
-    posix_spawn_file_actions_destroy(&actions);
-  }
-  ~Dualv() {
-    if (pid_ > 0) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, nullptr, 0);
-    }
-  }
-  bool started() const { return pid_ > 0; }
-  void signal(int sig) const { kill(pid_, sig); }
-  // Exit status, or -1 when it did not end within `within` (then it is killed).
-  int wait(std::chrono::milliseconds within) {
-    const auto end = Clock::now() + within;
-    int status = 0;
-    while (Clock::now() < end) {
-      const pid_t r = waitpid(pid_, &status, WNOHANG);
-      if (r == pid_) {
-        pid_ = -1;
-        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-      }
-      std::this_thread::sleep_for(20ms);
-    }
-    return -1;
-  }
-
- private:
-  pid_t pid_ = -1;
+  Dualv(std::vector<std::string> args, const std::string& notify_socket, const fs::path& log)
+      : DualvProcess(kDualv, std::move(args), log,
+                     {{{"NOTIFY_SOCKET", notify_socket}, {"WATCHDOG_USEC", kWatchdogUsec}},
+                      {"NOTIFY_SOCKET", "WATCHDOG"}}) {}
 };
 
-std::string read_file(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+std::string read_file(const fs::path& p) { return dualv::test::read_text_file(p); }
 
 class ServiceNotify : public ::testing::Test {
  protected:
@@ -225,7 +176,8 @@ TEST_F(ServiceNotify, IdleServeKeepsPingingAndStopsCleanlyOnSigterm) {
   ASSERT_TRUE(sock.ok());
   // memq://: an in-process LCM, no network; no command arrives, the service waits.
   Dualv dualv({"run", "-c", config_.string(), "--serve", "--commands", "memq://", "--keys",
-               (dir_ / "keys").string(), "--out", (dir_ / "out").string()},
+               (dir_ / "keys").string(), "--replay-state",
+               (dir_ / "state" / "replay.state").string(), "--out", (dir_ / "out").string()},
               sock.path(), dir_ / "dualv.log");
   ASSERT_TRUE(dualv.started());
   const std::string ready = "READY=1\nSTATUS=waiting for start";
@@ -262,7 +214,9 @@ class ServeWithCommand : public ServiceNotify {
     serve = std::make_unique<Dualv>(
         std::vector<std::string>{"run", "-c", config_.string(), "--serve", "--commands",
                                  "file://" + fifo.string() + "?speed=0", "--keys",
-                                 (dir_ / "keys").string(), "--out", (dir_ / "out").string()},
+                                 (dir_ / "keys").string(), "--replay-state",
+                                 (dir_ / "state" / "replay.state").string(), "--out",
+                                 (dir_ / "out").string()},
         sock.path(), dir_ / "dualv.log");
     ASSERT_TRUE(serve->started());
     Dualv start(

@@ -136,6 +136,32 @@ TEST_F(StreamCli, SendsTheFilesPosesSignedAndInOrderBetweenAStartAndAStop) {
   EXPECT_GE(last_utime - first_utime, 1450000);
 }
 
+// --duration shorter than the file: the stream ends there, its last setpoint the row in force
+// at that time (rows 0 and 0.5 s of four; nothing of the rows at 1.0 and 1.5 s).
+TEST_F(StreamCli, DurationShorterThanTheFileEndsTheStreamAtTheRowInForce) {
+  const std::string csv =
+      "t,x,y,theta\n0,0,0.25,0\n0.5,0.004,0.25,0\n1.0,0.008,0.25,0\n1.5,0.012,0.25,0\n";
+  const Exit r = run(stream_args(write_csv(csv)) + " --duration 0.6");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  lcm::LogFile log(log_path(), "r");
+  ASSERT_TRUE(log.good()) << log_path();
+  std::vector<double> xs;  // distinct x in the order sent
+  int stops = 0;
+  for (const lcm::LogEvent* e = log.readNextEvent(); e != nullptr; e = log.readNextEvent()) {
+    if (e->channel == runtime::kSetpointChannel) {
+      dualv_lcm::setpoint_t sp;
+      ASSERT_EQ(sp.decode(e->data, 0, e->datalen), e->datalen);
+      if (xs.empty() || xs.back() != sp.x) xs.push_back(sp.x);
+    } else if (e->channel == runtime::kCommandChannel) {
+      dualv_lcm::command_t cmd;
+      ASSERT_EQ(cmd.decode(e->data, 0, e->datalen), e->datalen);
+      stops += cmd.kind == dualv_lcm::command_t::KIND_STOP;
+    }
+  }
+  EXPECT_EQ(xs, (std::vector<double>{0.0, 0.004}));
+  EXPECT_EQ(stops, 1);
+}
+
 TEST_F(StreamCli, RefusesABadFileBeforeSendingAnything) {
   const struct {
     const char* csv;

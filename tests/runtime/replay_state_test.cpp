@@ -11,6 +11,7 @@
 #include <fstream>
 #include <lcm/lcm-cpp.hpp>
 #include <string>
+#include <vector>
 
 #include "runtime/channels.hpp"
 #include "runtime/command_auth.hpp"
@@ -135,7 +136,11 @@ TEST_F(ReplayState, FileRoundTripsAndIsWrittenAtomically) {
   m.commands["key with spaces"] = -3;
   m.setpoints["operator"] = 1'750'000'000'000'000;
   ASSERT_EQ(save_replay_state(cfg_.replay_state_file, m), "");
-  EXPECT_FALSE(std::filesystem::exists(cfg_.replay_state_file + ".tmp"));
+  // Nothing but the state file is left in the folder (no temporary file).
+  std::vector<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(dir_))
+    names.push_back(e.path().filename().string());
+  EXPECT_EQ(names, std::vector<std::string>{"replay-state"});
   const LoadedReplayState back = load_replay_state(cfg_.replay_state_file);
   ASSERT_EQ(back.status, ReplayStateStatus::kLoaded) << back.message;
   EXPECT_EQ(back.marks.commands, m.commands);
@@ -143,6 +148,67 @@ TEST_F(ReplayState, FileRoundTripsAndIsWrittenAtomically) {
   // A save into a folder that does not exist fails, says why, and leaves nothing behind.
   const std::string bad = (dir_ / "nope" / "state").string();
   EXPECT_NE(save_replay_state(bad, m).find("cannot create"), std::string::npos);
+}
+
+// A first use (the folder does not exist: nothing was ever accepted there) starts from an
+// empty, valid state; an existing folder without the file is a lost state and stays missing.
+TEST_F(ReplayState, FirstUseCreatesAnEmptyStateOnlyWhenTheFolderIsNew) {
+  const std::string fresh = (dir_ / "new" / "deeper" / "replay.state").string();
+  const std::string note = create_replay_state_on_first_use(fresh);
+  EXPECT_NE(note.find("created empty"), std::string::npos) << note;
+  const LoadedReplayState st = load_replay_state(fresh);
+  ASSERT_EQ(st.status, ReplayStateStatus::kLoaded) << st.message;
+  EXPECT_TRUE(st.marks.commands.empty() && st.marks.setpoints.empty());
+  // Only its owner may read the marks' folder.
+  const auto perms = std::filesystem::status(dir_ / "new" / "deeper").permissions();
+  EXPECT_EQ(perms & std::filesystem::perms::all, std::filesystem::perms::owner_all);
+  // A signed start is accepted at once from that state (no lost-state window).
+  CommandAuthConfig cfg;
+  cfg.replay_state_file = fresh;
+  CommandVerifier v({key_}, cfg);
+  const auto start = make_command(CommandKind::kStartProgram, "paper", kSigned, kSigned, &key_);
+  EXPECT_EQ(v.verify(start, kSigned + 1000).verdict, CommandVerdict::kAccepted);
+
+  // The folder exists now: deleting the file is a lost state, not a first use.
+  std::filesystem::remove(fresh);
+  EXPECT_EQ(create_replay_state_on_first_use(fresh), "");
+  EXPECT_EQ(load_replay_state(fresh).status, ReplayStateStatus::kMissing);
+  // A folder that cannot be made is an error naming the file.
+  std::ofstream(dir_ / "plain-file") << "x";
+  try {
+    create_replay_state_on_first_use((dir_ / "plain-file" / "sub" / "replay.state").string());
+    ADD_FAILURE() << "no error for a folder under a plain file";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("plain-file"), std::string::npos) << e.what();
+  }
+}
+
+// packaging/postinst writes the packaged service's first state by hand (no dualv needed at
+// install time): it must be the empty state this loader accepts.
+TEST_F(ReplayState, ThePackagesFirstStateIsAnEmptyValidState) {
+  std::ifstream in(std::string(DUALV_SOURCE_DIR) + "/packaging/postinst");
+  ASSERT_TRUE(in) << "packaging/postinst";
+  std::string line, printed;
+  const std::string marker = "printf '";
+  while (std::getline(in, line))
+    if (line.find("replay.state") != std::string::npos && line.find(marker) != std::string::npos) {
+      const auto from = line.find(marker) + marker.size();
+      printed = line.substr(from, line.find('\'', from) - from);
+    }
+  ASSERT_FALSE(printed.empty()) << "no printf '...' > .../replay.state line in packaging/postinst";
+  std::string text;  // printf's \n
+  for (std::size_t i = 0; i < printed.size(); ++i) {
+    if (printed[i] == '\\' && i + 1 < printed.size() && printed[i + 1] == 'n') {
+      text += '\n';
+      ++i;
+    } else {
+      text += printed[i];
+    }
+  }
+  std::ofstream(cfg_.replay_state_file) << text;
+  const LoadedReplayState st = load_replay_state(cfg_.replay_state_file);
+  ASSERT_EQ(st.status, ReplayStateStatus::kLoaded) << st.message << "\n" << text;
+  EXPECT_TRUE(st.marks.commands.empty() && st.marks.setpoints.empty());
 }
 
 }  // namespace

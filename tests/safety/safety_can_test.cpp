@@ -17,37 +17,15 @@
 #include "paper_fixture.hpp"
 #include "safety/fault_injector.hpp"
 #include "sim/in_process_can_rig.hpp"
+#include "tests/support/can_rig_time.hpp"
 
 namespace dualv::safety::test {
 namespace {
 
 using drivers::DriveRequest;
 
-class RigClock final : public drivers::canopen::Clock {
- public:
-  explicit RigClock(const sim::InProcessCanRig& rig) : rig_(rig) {}
-  std::uint64_t now_ns() const noexcept override { return rig_.now_ns(); }
-
- private:
-  const sim::InProcessCanRig& rig_;
-};
-
-// Set-up waits run the emulator in 0.1 ms steps of simulated time.
-class RigWaiter final : public drivers::canopen::Waiter {
- public:
-  explicit RigWaiter(sim::InProcessCanRig& rig) : rig_(rig) {}
-  void wait_until(std::uint64_t deadline_ns) override {
-    const std::uint64_t now = rig_.now_ns();
-    if (deadline_ns <= now) {
-      rig_.exchange();
-      return;
-    }
-    rig_.step(std::min<std::uint64_t>(100'000, deadline_ns - now));
-  }
-
- private:
-  sim::InProcessCanRig& rig_;
-};
+using dualv::test::RigClock;
+using dualv::test::RigWaiter;
 
 struct WireStats {
   double max_torque = 0.0;  // [N m] largest target torque in any captured RPDO

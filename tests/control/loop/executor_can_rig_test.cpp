@@ -17,6 +17,7 @@
 #include "safety/fault_log.hpp"
 #include "sim/in_process_can_rig.hpp"
 #include "tests/safety/paper_fixture.hpp"
+#include "tests/support/can_rig_time.hpp"
 
 namespace dualv::control {
 namespace {
@@ -24,30 +25,8 @@ namespace {
 using safety::test::paper;
 using safety::test::robot;
 
-class RigClock final : public drivers::canopen::Clock {
- public:
-  explicit RigClock(const sim::InProcessCanRig& rig) : rig_(rig) {}
-  std::uint64_t now_ns() const noexcept override { return rig_.now_ns(); }
-
- private:
-  const sim::InProcessCanRig& rig_;
-};
-
-class RigWaiter final : public drivers::canopen::Waiter {
- public:
-  explicit RigWaiter(sim::InProcessCanRig& rig) : rig_(rig) {}
-  void wait_until(std::uint64_t deadline_ns) override {
-    const std::uint64_t now = rig_.now_ns();
-    if (deadline_ns <= now) {
-      rig_.exchange();
-      return;
-    }
-    rig_.step(std::min<std::uint64_t>(100'000, deadline_ns - now));
-  }
-
- private:
-  sim::InProcessCanRig& rig_;
-};
+using dualv::test::RigClock;
+using dualv::test::RigWaiter;
 
 TEST(ExecutorOnCan, IdlesFiveSecondsWithTheShippedConfigThenRunsThePaperProgram) {
   const drivers::CanConfig can = drivers::load_can_config_file(robot().path);
