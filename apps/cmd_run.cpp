@@ -181,9 +181,7 @@ int serve(const RobotConfig& cfg, Machine& machine, runtime::CommandChannel& com
         ref = loop.prepare_stream(cfg.trajectory.streaming, cfg.trajectory.limits.workspace, epoch);
         service.status(fmt::format("streaming (key {})", cmd.key_id));
       } else {
-        std::string file = cmd.program;
-        if (!std::filesystem::exists(file)) file = default_config_dir() + "/" + cmd.program;
-        if (!std::filesystem::exists(file)) file += ".yaml";
+        const std::string file = resolve_named_program(cmd.program);
         trajectory::ProgramContext ctx;
         ctx.start = ctx.home = cfg.model.home;
         ctx.workspace = cfg.trajectory.limits.workspace;
