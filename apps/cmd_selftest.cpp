@@ -468,8 +468,7 @@ struct SelftestArgs {
 
 int selftest(const SelftestArgs& args) {
   const RobotConfig cfg = load_robot_config(resolve_config(args.config));
-  const std::string program_file =
-      args.program.empty() ? default_config_dir() + "/paper.yaml" : args.program;
+  const std::string program_file = resolve_program(args.program);
   trajectory::ProgramContext ctx;
   ctx.start = ctx.home = cfg.model.home;
   ctx.workspace = cfg.trajectory.limits.workspace;
@@ -575,8 +574,7 @@ void register_selftest_command(CLI::App& app) {
       "selftest", "Commissioning test of the safety layer: inject each fault, check the reaction");
   static SelftestArgs args;
   add_config_option(*cmd, args.config);
-  cmd->add_option("-p,--program", args.program,
-                  "Program YAML (default: paper.yaml beside the config)");
+  cmd->add_option("-p,--program", args.program, program_help());
   cmd->add_option("--can", args.can,
                   "Run against the drives on this SocketCAN interface (moves hardware)");
   cmd->add_flag("--i-understand-this-moves-hardware", args.confirmed,
