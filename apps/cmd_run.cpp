@@ -200,8 +200,8 @@ int serve(const RobotConfig& cfg, Machine& machine, runtime::CommandChannel& com
       current.name = name;
       current.id = loop.start(std::move(ref));
       if (current.id == 0) throw std::runtime_error("the control loop's command queue is full");
-    } catch (const std::exception& e) {
-      fmt::print(stderr, "dualv run: start of '{}' refused: {}\n", cmd.program, e.what());
+    } catch (const std::exception& error) {
+      fmt::print(stderr, "dualv run: start of '{}' refused: {}\n", cmd.program, error.what());
       current = {};
     }
   }

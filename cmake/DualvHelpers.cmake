@@ -1,7 +1,8 @@
 # Shared build settings for every dualv target.
 
 add_library(dualv_warnings INTERFACE)
-target_compile_options(dualv_warnings INTERFACE -Wall -Wextra -Wpedantic)
+# -Wshadow on the project's own code (issue 14); the lcm-gen headers are system headers.
+target_compile_options(dualv_warnings INTERFACE -Wall -Wextra -Wpedantic -Wshadow)
 if(DUALV_WERROR)
   target_compile_options(dualv_warnings INTERFACE -Werror)
 endif()
@@ -41,7 +42,8 @@ endfunction()
 function(dualv_add_library name)
   cmake_parse_arguments(ARG "" "" "SOURCES;LIBS" ${ARGN})
   add_library(${name} STATIC ${ARG_SOURCES})
-  target_include_directories(${name} PUBLIC ${PROJECT_SOURCE_DIR} ${PROJECT_BINARY_DIR}/generated)
+  target_include_directories(${name} PUBLIC ${PROJECT_SOURCE_DIR})
+  target_include_directories(${name} SYSTEM PUBLIC ${PROJECT_BINARY_DIR}/generated)
   target_link_libraries(${name} PUBLIC ${ARG_LIBS} PRIVATE dualv_warnings)
 endfunction()
 

@@ -92,10 +92,10 @@ INSTANTIATE_TEST_SUITE_P(ChainsGravityPath, AgreesWithUpdateDynamics,
                                            Case{3, true, false}, Case{3, true, true},
                                            Case{5, false, false}, Case{5, true, true},
                                            Case{8, true, false}, Case{8, true, true}),
-                         [](const auto& info) {
-                           return std::to_string(info.param.n) + "Chains" +
-                                  (info.param.gravity ? "Gravity" : "") +
-                                  (info.param.avx2 ? "Avx2" : "Sse2");
+                         [](const auto& test) {
+                           return std::to_string(test.param.n) + "Chains" +
+                                  (test.param.gravity ? "Gravity" : "") +
+                                  (test.param.avx2 ? "Avx2" : "Sse2");
                          });
 
 TEST(LaneDynamics, StatusesMatchUpdateDynamicsOutsideTheWorkspace) {

@@ -260,13 +260,13 @@ class FakeSlave {
           return;
         }
         if (it->second.size() <= 4 && upload_without_size) {
-          fw::CanFrame r;
-          r.id = fw::cob_id(fw::Function::kSdoTx, node_);
-          r.dlc = 8;
-          r.data = {0x42, static_cast<std::uint8_t>(m.index),
-                    static_cast<std::uint8_t>(m.index >> 8), m.subindex};
-          std::copy(it->second.begin(), it->second.end(), r.data.begin() + 4);
-          (void)bus_.send(r);
+          fw::CanFrame response;
+          response.id = fw::cob_id(fw::Function::kSdoTx, node_);
+          response.dlc = 8;
+          response.data = {0x42, static_cast<std::uint8_t>(m.index),
+                           static_cast<std::uint8_t>(m.index >> 8), m.subindex};
+          std::copy(it->second.begin(), it->second.end(), response.data.begin() + 4);
+          (void)bus_.send(response);
         } else if (it->second.size() <= 4) {
           send(fw::sdo_upload_expedited_response(node_, m.index, m.subindex, it->second));
         } else {
