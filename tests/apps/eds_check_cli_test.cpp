@@ -15,25 +15,14 @@
 #include <string>
 #include <vector>
 
+#include "tests/support/dualv_process.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
 
-struct Exit {
-  int exit_code = -1;
-  std::string output;
-};
-
-Exit run(const std::string& args) {
-  Exit r;
-  FILE* p = popen((std::string(DUALV_BINARY) + " " + args + " 2>&1").c_str(), "r");
-  if (p == nullptr) return r;
-  char buf[4096];
-  while (fgets(buf, sizeof buf, p) != nullptr) r.output += buf;
-  const int status = pclose(p);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+using Exit = dualv::test::CliResult;
+Exit run(const std::string& args) { return dualv::test::run_cli(DUALV_BINARY, args); }
 
 std::string source(const std::string& rel) { return std::string(DUALV_SOURCE_DIR) + "/" + rel; }
 const std::string kEds = source("config/eds/dualv-emulated-drive.eds");

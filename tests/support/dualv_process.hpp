@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -27,6 +28,23 @@ inline std::string read_text_file(const std::filesystem::path& p) {
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+// `BINARY ARGS` run to its end through the shell (stdout and stderr together): the one-shot
+// CLI tests (exit code and everything printed).
+struct CliResult {
+  int exit_code = -1;  // -1: not started, or ended by a signal
+  std::string output;
+};
+inline CliResult run_cli(const std::string& binary, const std::string& args) {
+  CliResult r;
+  FILE* p = popen((binary + " " + args + " 2>&1").c_str(), "r");
+  if (p == nullptr) return r;
+  char buf[4096];
+  while (fgets(buf, sizeof buf, p) != nullptr) r.output += buf;
+  const int status = pclose(p);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
 }
 
 class DualvProcess {

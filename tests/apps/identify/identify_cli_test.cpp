@@ -13,23 +13,12 @@
 #include <regex>
 #include <string>
 
+#include "tests/support/dualv_process.hpp"
+
 namespace {
 
-struct Exit {
-  int exit_code = -1;
-  std::string output;
-};
-
-Exit run(const std::string& args) {
-  Exit r;
-  FILE* p = popen((std::string(DUALV_BINARY) + " " + args + " 2>&1").c_str(), "r");
-  if (p == nullptr) return r;
-  char buf[4096];
-  while (fgets(buf, sizeof buf, p) != nullptr) r.output += buf;
-  const int status = pclose(p);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+using Exit = dualv::test::CliResult;
+Exit run(const std::string& args) { return dualv::test::run_cli(DUALV_BINARY, args); }
 
 // A CSV as `dualv run` writes it (the columns identify reads): the plate moving along x, with a
 // little rotation in phase, x = A sin(2 pi t), theta = 0.2 A / m sin(2 pi t) about home
