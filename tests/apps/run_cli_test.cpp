@@ -63,15 +63,17 @@ class RunCli : public ::testing::Test {
     fs::permissions(dir_ / "keys" / "lab1.key", fs::perms::owner_read | fs::perms::owner_write);
     // A short program at the home pose.
     std::ofstream(dir_ / "prog.yaml") << "program:\n  segments:\n    - dwell: {duration: 0.2}\n";
-    // The shipped configuration, except that late cycles never stop a run: these tests check
-    // the command path, and a loop paced at 1 kHz on a busy shared machine misses deadlines.
-    std::string config = read_text_file(kConfig);
-    const std::string limit = "max_consecutive_deadline_misses: 3 ";
-    const auto at = config.find(limit);
-    ASSERT_NE(at, std::string::npos) << "config/dualv.yaml changed: update this test";
-    config.replace(at, limit.size(), "max_consecutive_deadline_misses: 1000 ");
-    config_ = dir_ / "dualv.yaml";
-    std::ofstream(config_) << config;
+    // The shipped configuration unchanged. A loop paced at 1 kHz on a busy shared machine (or
+    // in an -O0 coverage build) can miss deadlines and stop on them (a latched stop then
+    // refuses the start): what these tests check is the command path (the verifier's verdicts
+    // and the replay state), which does not depend on that timing, so the program's end is
+    // awaited as done, stopped or refused alike (handled()).
+    config_ = kConfig;
+  }
+  // The service has dealt with the start of prog.yaml: it ran to its end, was stopped, or was
+  // refused by the loop.
+  static bool handled(DualvProcess& p) {
+    return p.wait_for_any_text({"prog.yaml done", "prog.yaml STOPPED", "start of '"}, 60s) >= 0;
   }
   void TearDown() override { fs::remove_all(dir_); }
 
@@ -152,13 +154,13 @@ TEST_F(RunCli, SignedStartAcceptedByOneServiceIsRefusedByTheNextOnTheSameState) 
     return {captured};
   });
   ASSERT_FALSE(captured.empty());
-  ASSERT_TRUE(first->wait_for_text("prog.yaml done", 60s)) << first->output();
+  ASSERT_TRUE(handled(*first)) << first->output();
   first->signal(SIGTERM);
   ASSERT_EQ(first->wait(30s), 0) << first->output();
   const std::string first_log = first->output();
   EXPECT_NE(first_log.find("replay state " + state.string() + ": created empty"), std::string::npos)
       << first_log;
-  EXPECT_EQ(count_of(first_log, "dualv run: starting "), 1u) << first_log;
+  EXPECT_EQ(count_of(first_log, "command accepted: start signed by 'lab1'"), 1u) << first_log;
 
   // The restart: a new process on the same state file.
   auto second = serve("second", state);
@@ -171,7 +173,7 @@ TEST_F(RunCli, SignedStartAcceptedByOneServiceIsRefusedByTheNextOnTheSameState) 
         dualv::runtime::CommandKind::kStartProgram, prog, now, sent.sequence + 1, &k);
     return {captured, encode(same_sequence), encode(next_sequence)};
   });
-  ASSERT_TRUE(second->wait_for_text("prog.yaml done", 60s)) << second->output();
+  ASSERT_TRUE(handled(*second)) << second->output();
   second->signal(SIGTERM);
   ASSERT_EQ(second->wait(30s), 0) << second->output();
   const std::string second_log = second->output();
@@ -190,7 +192,6 @@ TEST_F(RunCli, SignedStartAcceptedByOneServiceIsRefusedByTheNextOnTheSameState) 
                 count_of(second_log, "command refused (stale)"),
             2u)
       << second_log;
-  EXPECT_EQ(count_of(second_log, "dualv run: starting "), 1u) << second_log;
   EXPECT_EQ(count_of(second_log, "command accepted: start signed by 'lab1'"), 1u) << second_log;
 }
 

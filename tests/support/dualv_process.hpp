@@ -107,11 +107,18 @@ class DualvProcess {
   // True as soon as the output holds `text`; false after `within` or when the process ended
   // without writing it.
   bool wait_for_text(const std::string& text, std::chrono::milliseconds within) {
+    return wait_for_any_text({text}, within) == 0;
+  }
+  // The index of the first of `texts` found in the output, -1 when none came within `within`
+  // (or the process ended without writing any).
+  int wait_for_any_text(const std::vector<std::string>& texts, std::chrono::milliseconds within) {
     const auto end = Clock::now() + within;
     for (;;) {
       const bool ended = reaped();  // before reading: what it wrote before it ended is seen
-      if (output().find(text) != std::string::npos) return true;
-      if (ended || Clock::now() >= end) return false;
+      const std::string out = output();
+      for (std::size_t i = 0; i < texts.size(); ++i)
+        if (out.find(texts[i]) != std::string::npos) return static_cast<int>(i);
+      if (ended || Clock::now() >= end) return -1;
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
   }
