@@ -258,13 +258,13 @@ IoStatus CanopenActuatorSet::read(ActuatorFeedback& fb) noexcept {
 
   if (!bus_off_ && bus_.state() == BusStatus::kBusOff) latch_bus_off();
   if (!bus_off_) {
-    fw::CanFrame f;
+    // Every pending frame, a batch at a time (one syscall per batch on SocketCAN).
+    std::array<fw::CanFrame, 16> frames;
     for (;;) {
-      const BusStatus s = bus_.receive(f);
-      if (s == BusStatus::kOk) {
-        dispatch(f, now);
-        continue;
-      }
+      BusStatus s = BusStatus::kOk;
+      const std::size_t got = bus_.receive_many(frames, s);
+      for (std::size_t k = 0; k < got; ++k) dispatch(frames[k], now);
+      if (s == BusStatus::kOk) continue;
       if (s == BusStatus::kBusOff) latch_bus_off();
       break;
     }
@@ -349,15 +349,33 @@ IoStatus CanopenActuatorSet::write(const ActuatorCommand& command) noexcept {
   events_.own_stop |= write_events_.own_stop;
   events_.transition_timeout |= write_events_.transition_timeout;
 
-  if (config_.rpdo_layout == fw::RpdoLayoutKind::kPerDrive) {
-    for (int i = 0; i < n_ && !bus_off_; ++i) {
-      const fw::Result<fw::CanFrame> f = fw::encode_rpdo1(
-          config_.drives[static_cast<std::size_t>(i)].node_id, {sent_[i].controlword, torque[i]});
-      sent_[i].sent = f && send(*f) == BusStatus::kOk;
-      ok = ok && sent_[i].sent;
+  // The cycle's frames, sent in one batch (one syscall on SocketCAN): the RPDOs (or the
+  // controlwords due and the broadcast torques), the SYNC, the heartbeat when due.
+  enum class Tx : std::uint8_t { kRpdo, kControlword, kBroadcast, kSync, kHeartbeat };
+  struct Pending {
+    Tx what;
+    int drive;
+  };
+  constexpr std::size_t kMaxFrames = 2 * kMaxDrives + 3;
+  std::array<fw::CanFrame, kMaxFrames> frames{};
+  std::array<Pending, kMaxFrames> pending{};
+  std::size_t count = 0;
+  auto add = [&](const fw::Result<fw::CanFrame>& f, Tx what, int drive) {
+    if (!f) {  // cannot happen with a validated configuration; counted, never sent
+      ++counters_.tx_errors;
+      return;
     }
+    frames[count] = *f;
+    pending[count++] = {what, drive};
+  };
+  const bool per_drive = config_.rpdo_layout == fw::RpdoLayoutKind::kPerDrive;
+  if (per_drive) {
+    for (int i = 0; i < n_; ++i)
+      add(fw::encode_rpdo1(config_.drives[static_cast<std::size_t>(i)].node_id,
+                           {sent_[i].controlword, torque[i]}),
+          Tx::kRpdo, i);
   } else {
-    for (int i = 0; i < n_ && !bus_off_; ++i) {
+    for (int i = 0; i < n_; ++i) {
       // On change, at most once per can.controlword_inhibit (a change waits it out, the
       // torque in the broadcast frame is already what the new state allows); at least once
       // per can.controlword_refresh.
@@ -367,49 +385,77 @@ IoStatus CanopenActuatorSet::write(const ActuatorCommand& command) noexcept {
           !canopen::expired(controlword_sent_ns_[i], now, config_.controlword_inhibit_ns);
       if (inhibited) sent_[i].controlword = last_controlword_[i];  // what the wire carries
       if (!inhibited && (changed || canopen::expired(controlword_sent_ns_[i], now,
-                                                     config_.controlword_refresh_ns))) {
-        const fw::Result<fw::CanFrame> f = fw::encode_controlword_rpdo(
-            config_.drives[static_cast<std::size_t>(i)].node_id, sent_[i].controlword);
-        if (f && send(*f) == BusStatus::kOk) {
-          controlword_sent_ns_[i] = now;
-          last_controlword_[i] = sent_[i].controlword;
-          controlword_ok_[i] = true;
-        } else {
-          controlword_ok_[i] = false;
-          ok = false;
-        }
-      }
+                                                     config_.controlword_refresh_ns)))
+        add(fw::encode_controlword_rpdo(config_.drives[static_cast<std::size_t>(i)].node_id,
+                                        sent_[i].controlword),
+            Tx::kControlword, i);
     }
     fw::BroadcastTorques t;
     t.drives = static_cast<std::uint8_t>(n_);
     for (int i = 0; i < n_; ++i) t.torque[i] = torque[i];
-    const fw::Result<fw::CanFrame> f = fw::encode_broadcast_torques(t);
-    const bool sent = !bus_off_ && f && send(*f) == BusStatus::kOk;
-    for (int i = 0; i < n_; ++i) sent_[i].sent = sent && controlword_ok_[i];
-    ok = ok && sent;
+    add(fw::encode_broadcast_torques(t), Tx::kBroadcast, 0);
   }
-  if (!bus_off_) {
-    const BusStatus s = sync_.send(bus_);
-    if (s == BusStatus::kOk) {
-      ++counters_.sync_sent;
-      sync_sent_last_cycle_ = true;
-    } else if (s == BusStatus::kWouldBlock) {
-      ++counters_.tx_would_block;
-      ok = false;
-    } else if (s == BusStatus::kBusOff) {
-      latch_bus_off();
-    } else {
-      ++counters_.tx_errors;
-      ok = false;
+  const std::size_t sync_at = count;
+  add(sync_.next_frame(), Tx::kSync, 0);
+  if (sync_at == count) ok = false;
+  if (heartbeat_producer_.due(now))
+    add(fw::encode_heartbeat(heartbeat_producer_.node(), fw::NmtState::kOperational), Tx::kHeartbeat,
+        0);
+
+  // Every frame is tried once, as if sent one by one: a frame the bus refuses (ENOBUFS) is
+  // dropped and the next is tried; after bus-off nothing more is tried (kClosed).
+  std::array<BusStatus, kMaxFrames> outcome{};
+  outcome.fill(BusStatus::kClosed);
+  for (std::size_t k = 0; k < count;) {
+    BusStatus st = BusStatus::kOk;
+    const std::size_t sent = bus_.send_many(std::span(frames).subspan(k, count - k), st);
+    for (std::size_t j = k; j < k + sent; ++j) outcome[j] = BusStatus::kOk;
+    k += sent;
+    if (k == count) break;
+    outcome[k++] = st;
+    if (st == BusStatus::kWouldBlock) ++counters_.tx_would_block;  // dropped, never queued
+    else if (st == BusStatus::kBusOff) break;
+    else ++counters_.tx_errors;
+  }
+  bool broadcast_sent = per_drive;
+  for (std::size_t k = 0; k < count; ++k) {
+    const bool sent = outcome[k] == BusStatus::kOk;
+    if (outcome[k] == BusStatus::kBusOff) latch_bus_off();
+    const int i = pending[k].drive;
+    switch (pending[k].what) {
+      case Tx::kRpdo:
+        sent_[i].sent = sent;
+        ok = ok && sent;
+        break;
+      case Tx::kControlword:
+        if (sent) {
+          controlword_sent_ns_[i] = now;
+          last_controlword_[i] = sent_[i].controlword;
+        }
+        controlword_ok_[i] = sent;
+        ok = ok && sent;
+        break;
+      case Tx::kBroadcast:
+        broadcast_sent = sent;
+        ok = ok && sent;
+        break;
+      case Tx::kSync:
+        if (outcome[k] != BusStatus::kClosed) sync_.on_sent(outcome[k]);
+        if (sent) {
+          ++counters_.sync_sent;
+          sync_sent_last_cycle_ = true;
+        } else {
+          ok = false;
+        }
+        break;
+      case Tx::kHeartbeat:
+        if (outcome[k] != BusStatus::kClosed) heartbeat_producer_.on_sent(outcome[k], now);
+        if (sent) ++counters_.heartbeats_sent;
+        break;
     }
   }
-  if (!bus_off_) {
-    const std::uint64_t before = heartbeat_producer_.sent();
-    const BusStatus s = heartbeat_producer_.poll(bus_, now);
-    if (s == BusStatus::kWouldBlock) ++counters_.tx_would_block;
-    if (s == BusStatus::kBusOff) latch_bus_off();
-    counters_.heartbeats_sent += heartbeat_producer_.sent() - before;
-  }
+  if (!per_drive)
+    for (int i = 0; i < n_; ++i) sent_[i].sent = broadcast_sent && controlword_ok_[i];
   for (int i = 0; i < n_; ++i)
     torque_applied_[i] =
         sent_[i].sent ? fw::per_mille_to_nm(

@@ -20,4 +20,26 @@ const char* to_string(BusStatus s) noexcept {
   return "unknown";
 }
 
+std::size_t CanBus::send_many(std::span<const fw::CanFrame> frames, BusStatus& status) noexcept {
+  status = BusStatus::kOk;
+  std::size_t sent = 0;
+  for (const fw::CanFrame& f : frames) {
+    status = send(f);
+    if (status != BusStatus::kOk) break;
+    ++sent;
+  }
+  return sent;
+}
+
+std::size_t CanBus::receive_many(std::span<fw::CanFrame> frames, BusStatus& status) noexcept {
+  status = BusStatus::kOk;
+  std::size_t got = 0;
+  while (got < frames.size()) {
+    status = receive(frames[got]);
+    if (status != BusStatus::kOk) break;
+    ++got;
+  }
+  return got;
+}
+
 }  // namespace dualv::drivers

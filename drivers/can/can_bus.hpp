@@ -5,7 +5,9 @@
 // in-process simulation. Every layer above is unaware which one it runs on.
 //
 // Real-time safe: send/receive are noexcept, non-blocking and allocate nothing.
+#include <cstddef>
 #include <cstdint>
+#include <span>
 
 #include "firmware_if/can_frame.hpp"
 
@@ -41,6 +43,14 @@ class CanBus {
   virtual BusStatus send(const fw::CanFrame& frame) noexcept = 0;
   // Takes one received frame if any (kWouldBlock when none); never blocks.
   virtual BusStatus receive(fw::CanFrame& frame) noexcept = 0;
+  // Queues frames in order, stopping at the first that cannot be queued: returns how many
+  // were queued, and sets `status` to kOk or to why frames[returned] was not. One syscall
+  // for the whole batch where the backend can (SocketCanBus: sendmmsg), so a cycle's SYNC
+  // and RPDOs cost one kernel entry; the default sends one by one.
+  virtual std::size_t send_many(std::span<const fw::CanFrame> frames, BusStatus& status) noexcept;
+  // Takes up to frames.size() received frames: returns how many, and sets `status` to kOk,
+  // kWouldBlock (fewer were pending) or the error that stopped it. SocketCanBus: recvmmsg.
+  virtual std::size_t receive_many(std::span<fw::CanFrame> frames, BusStatus& status) noexcept;
   // Current controller state (kOk, kErrorPassive or kBusOff).
   virtual BusStatus state() const noexcept = 0;
   // Leaves bus-off: frames queued before the fault are discarded, never sent late.

@@ -152,50 +152,81 @@ SocketCanBus::~SocketCanBus() {
   }
 }
 
-BusStatus SocketCanBus::send(const fw::CanFrame& frame) noexcept {
-  if (fd_ < 0) {
-    return BusStatus::kClosed;
-  }
-  if (bus_off_) {
-    ++counters_.tx_dropped;
-    return BusStatus::kBusOff;
-  }
-  if (frame.dlc > CAN_MAX_DLEN) {
-    ++counters_.tx_dropped;
-    last_errno_ = EINVAL;
-    return BusStatus::kIoError;
-  }
-  can_frame cf{};
+namespace {
+// The kernel's frame for one of ours; false when it cannot be one (more than 8 bytes).
+bool to_kernel_frame(const fw::CanFrame& frame, can_frame& cf) noexcept {
+  if (frame.dlc > CAN_MAX_DLEN) return false;
+  cf = can_frame{};
   cf.can_id =
       frame.extended ? ((frame.id & CAN_EFF_MASK) | CAN_EFF_FLAG) : (frame.id & CAN_SFF_MASK);
-  if (frame.rtr) {
-    cf.can_id |= CAN_RTR_FLAG;
-  }
+  if (frame.rtr) cf.can_id |= CAN_RTR_FLAG;
   cf.len = frame.dlc;
   std::memcpy(cf.data, frame.data.data(), frame.dlc);
-  const ssize_t n = ::send(fd_, &cf, sizeof(cf), MSG_DONTWAIT);
-  if (n == static_cast<ssize_t>(sizeof(cf))) {
-    ++counters_.tx_frames;
-    return BusStatus::kOk;
+  return true;
+}
+// Frames per sendmmsg/recvmmsg call: a cycle's frames (4 drives: SYNC, 4 RPDOs, a heartbeat;
+// 4 TPDOs back) fit in one.
+constexpr std::size_t kBatch = 16;
+}  // namespace
+static_assert(CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(std::uint32_t)) <=
+              SocketCanBus::kControlBytes);
+
+BusStatus SocketCanBus::send(const fw::CanFrame& frame) noexcept {
+  BusStatus status = BusStatus::kOk;
+  (void)send_many(std::span(&frame, 1), status);
+  return status;
+}
+
+std::size_t SocketCanBus::send_many(std::span<const fw::CanFrame> frames,
+                                    BusStatus& status) noexcept {
+  status = BusStatus::kOk;
+  if (fd_ < 0) {
+    status = BusStatus::kClosed;
+    return 0;
   }
-  ++counters_.tx_dropped;
-  if (n < 0) {
-    last_errno_ = errno;
-    if (last_errno_ == ENOBUFS || last_errno_ == EAGAIN) {
-      return BusStatus::kWouldBlock;
+  if (bus_off_) {
+    counters_.tx_dropped += frames.size();
+    status = BusStatus::kBusOff;
+    return 0;
+  }
+  std::size_t sent = 0;
+  while (sent < frames.size()) {
+    std::array<can_frame, kBatch> cf{};
+    std::array<iovec, kBatch> iov{};
+    std::array<mmsghdr, kBatch> msgs{};
+    std::size_t n = 0;
+    for (; n < kBatch && sent + n < frames.size(); ++n) {
+      if (!to_kernel_frame(frames[sent + n], cf[n])) break;
+      iov[n] = iovec{&cf[n], sizeof(can_frame)};
+      msgs[n].msg_hdr.msg_iov = &iov[n];
+      msgs[n].msg_hdr.msg_iovlen = 1;
     }
-  } else {
-    last_errno_ = EIO;  // a short write of a CAN frame cannot happen; treat as I/O error
+    if (n == 0) {  // frames[sent] is not a classic frame
+      counters_.tx_dropped += frames.size() - sent;
+      last_errno_ = EINVAL;
+      status = BusStatus::kIoError;
+      return sent;
+    }
+    const int r = ::sendmmsg(fd_, msgs.data(), static_cast<unsigned>(n), MSG_DONTWAIT);
+    if (r < 0) {
+      last_errno_ = errno;
+      counters_.tx_dropped += frames.size() - sent;
+      status = (last_errno_ == ENOBUFS || last_errno_ == EAGAIN) ? BusStatus::kWouldBlock
+                                                                : BusStatus::kIoError;
+      return sent;
+    }
+    // A short count: the next call reports why the rest could not be queued.
+    sent += static_cast<std::size_t>(r);
+    counters_.tx_frames += static_cast<std::size_t>(r);
   }
-  return BusStatus::kIoError;
+  return sent;
 }
 
 SocketCanBus::Read SocketCanBus::read_one(fw::CanFrame& frame) noexcept {
   can_frame cf{};
   iovec iov{&cf, sizeof(cf)};
   // Room for the timestamp and the drop counter; on the stack, nothing allocated.
-  alignas(cmsghdr) unsigned char
-      control[CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(std::uint32_t))];
+  alignas(cmsghdr) unsigned char control[kControlBytes];
   msghdr msg{};
   msg.msg_iov = &iov;
   msg.msg_iovlen = 1;
@@ -209,7 +240,12 @@ SocketCanBus::Read SocketCanBus::read_one(fw::CanFrame& frame) noexcept {
     last_errno_ = errno;
     return Read::kFailed;
   }
-  if (n != static_cast<ssize_t>(sizeof(cf))) {
+  return take(cf, msg, static_cast<std::size_t>(n), frame);
+}
+
+SocketCanBus::Read SocketCanBus::take(const can_frame& cf, msghdr& msg, std::size_t bytes,
+                                      fw::CanFrame& frame) noexcept {
+  if (bytes != sizeof(cf)) {
     last_errno_ = EPROTO;  // CAN FD frames are not enabled on this socket
     return Read::kFailed;
   }
@@ -315,6 +351,68 @@ BusStatus SocketCanBus::receive(fw::CanFrame& frame) noexcept {
     }
   }
   return BusStatus::kWouldBlock;
+}
+
+std::size_t SocketCanBus::receive_many(std::span<fw::CanFrame> frames,
+                                       BusStatus& status) noexcept {
+  status = BusStatus::kOk;
+  if (fd_ < 0) {
+    status = BusStatus::kClosed;
+    return 0;
+  }
+  std::size_t got = 0;
+  // Error frames are consumed here and not returned; bounded like receive() so an error
+  // storm cannot hold the cycle: the rest are read on the next call.
+  for (int round = 0; round < 4 && got < frames.size(); ++round) {
+    if (bus_off_) {
+      status = BusStatus::kBusOff;
+      return got;
+    }
+    const std::size_t want = std::min(kBatch, frames.size() - got);
+    std::array<can_frame, kBatch> cf{};
+    std::array<iovec, kBatch> iov{};
+    std::array<mmsghdr, kBatch> msgs{};
+    alignas(cmsghdr) unsigned char control[kBatch][kControlBytes];
+    for (std::size_t k = 0; k < want; ++k) {
+      iov[k] = iovec{&cf[k], sizeof(can_frame)};
+      msgs[k].msg_hdr.msg_iov = &iov[k];
+      msgs[k].msg_hdr.msg_iovlen = 1;
+      msgs[k].msg_hdr.msg_control = control[k];
+      msgs[k].msg_hdr.msg_controllen = kControlBytes;
+    }
+    const int r = ::recvmmsg(fd_, msgs.data(), static_cast<unsigned>(want), MSG_DONTWAIT, nullptr);
+    if (r < 0) {
+      if (errno == EAGAIN || errno == EWOULDBLOCK) {
+        status = BusStatus::kWouldBlock;
+      } else {
+        last_errno_ = errno;
+        status = BusStatus::kIoError;
+      }
+      return got;
+    }
+    for (int k = 0; k < r; ++k) {
+      switch (take(cf[static_cast<std::size_t>(k)], msgs[static_cast<std::size_t>(k)].msg_hdr,
+                   msgs[static_cast<std::size_t>(k)].msg_len, frames[got])) {
+        case Read::kFrame:
+          ++counters_.rx_frames;
+          ++got;
+          break;
+        case Read::kErrorFrame:
+          break;
+        case Read::kNone:
+        case Read::kFailed:
+          status = BusStatus::kIoError;
+          return got;
+      }
+    }
+    if (static_cast<std::size_t>(r) < want) {  // the queue is empty
+      if (bus_off_) status = BusStatus::kBusOff;
+      else if (got < frames.size()) status = BusStatus::kWouldBlock;
+      return got;
+    }
+  }
+  if (bus_off_) status = BusStatus::kBusOff;
+  return got;
 }
 
 BusStatus SocketCanBus::state() const noexcept {

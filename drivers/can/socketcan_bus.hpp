@@ -35,6 +35,9 @@
 #include "drivers/can/can_bus.hpp"
 #include "drivers/can/socketcan_error.hpp"
 
+struct can_frame;  // <linux/can.h>
+struct msghdr;     // <sys/socket.h>
+
 namespace dualv::drivers {
 
 // Thrown by constructors when the bus cannot be set up; what() says what to fix.
@@ -84,8 +87,13 @@ class SocketCanBus final : public CanBus {
   SocketCanBus(const SocketCanBus&) = delete;
   SocketCanBus& operator=(const SocketCanBus&) = delete;
 
+  // Control data per received message: the timestamp and the drop counter.
+  static constexpr std::size_t kControlBytes = 64;
+
   BusStatus send(const fw::CanFrame& frame) noexcept override;
   BusStatus receive(fw::CanFrame& frame) noexcept override;
+  std::size_t send_many(std::span<const fw::CanFrame> frames, BusStatus& status) noexcept override;
+  std::size_t receive_many(std::span<fw::CanFrame> frames, BusStatus& status) noexcept override;
   BusStatus state() const noexcept override;
   BusStatus restart() noexcept override;
   const BusCounters& counters() const noexcept override { return counters_; }
@@ -108,6 +116,10 @@ class SocketCanBus final : public CanBus {
  private:
   enum class Read : std::uint8_t { kFrame, kErrorFrame, kNone, kFailed };
   Read read_one(fw::CanFrame& frame) noexcept;
+  // One received message (frame or error frame) with its control data, into `frame`.
+  Read take(const ::can_frame& cf, ::msghdr& msg, std::size_t bytes,
+            fw::CanFrame& frame) noexcept;
+
   void on_error_frame(std::uint32_t can_id, const std::array<std::uint8_t, 8>& data) noexcept;
 
   std::string interface_;

@@ -5,6 +5,7 @@
 #include <cstdint>
 
 #include "drivers/can/can_bus.hpp"
+#include "firmware_if/result.hpp"
 #include "firmware_if/nmt.hpp"
 
 namespace dualv::drivers::canopen {
@@ -17,6 +18,10 @@ class HeartbeatProducer {
   // A failed send is retried at the next poll.
   BusStatus poll(CanBus& bus, std::uint64_t now_ns,
                  fw::NmtState state = fw::NmtState::kOperational) noexcept;
+  // The same in steps, for a caller that sends a cycle's frames in one batch
+  // (CanBus::send_many): whether a heartbeat is due, then what became of it.
+  bool due(std::uint64_t now_ns) const noexcept;
+  void on_sent(BusStatus status, std::uint64_t now_ns) noexcept;
   std::uint64_t sent() const noexcept { return sent_; }
   std::uint64_t failed() const noexcept { return failed_; }
   std::uint8_t node() const noexcept { return node_; }

@@ -4,20 +4,23 @@
 
 namespace dualv::drivers::canopen {
 
-BusStatus SyncProducer::send(CanBus& bus) noexcept {
-  const std::uint8_t next = fw::next_sync_counter(counter_, overflow_);
-  const fw::Result<fw::CanFrame> f = fw::encode_sync(next);
-  if (!f) {
-    ++failed_;
-    return BusStatus::kIoError;
-  }
-  const BusStatus s = bus.send(*f);
-  if (s == BusStatus::kOk) {
-    counter_ = next;
+fw::Result<fw::CanFrame> SyncProducer::next_frame() const noexcept {
+  return fw::encode_sync(fw::next_sync_counter(counter_, overflow_));
+}
+
+void SyncProducer::on_sent(BusStatus status) noexcept {
+  if (status == BusStatus::kOk) {
+    counter_ = fw::next_sync_counter(counter_, overflow_);
     ++sent_;
   } else {
     ++failed_;
   }
+}
+
+BusStatus SyncProducer::send(CanBus& bus) noexcept {
+  const fw::Result<fw::CanFrame> f = next_frame();
+  const BusStatus s = f ? bus.send(*f) : BusStatus::kIoError;
+  on_sent(s);
   return s;
 }
 

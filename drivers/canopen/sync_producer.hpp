@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "drivers/can/can_bus.hpp"
+#include "firmware_if/result.hpp"
 
 namespace dualv::drivers::canopen {
 
@@ -13,6 +14,10 @@ class SyncProducer {
  public:
   explicit SyncProducer(std::uint8_t counter_overflow = 0) noexcept : overflow_(counter_overflow) {}
   BusStatus send(CanBus& bus) noexcept;
+  // The same in two steps, for a caller that sends a cycle's frames in one batch
+  // (CanBus::send_many): the next SYNC's frame, then what became of it.
+  fw::Result<fw::CanFrame> next_frame() const noexcept;
+  void on_sent(BusStatus status) noexcept;
   // Counter of the last SYNC sent (0 before the first, or without counter).
   std::uint8_t counter() const noexcept { return counter_; }
   std::uint8_t overflow() const noexcept { return overflow_; }

@@ -16,6 +16,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -139,12 +140,79 @@ TEST(SocketCanHil, TwoSocketsExchangeFramesWithKernelTimestamps) {
   EXPECT_EQ(back, frame(0x181, {0x37, 0x06, 1, 0, 0, 0}));
 }
 
+// receive_many until `n` frames came or `quiet` passed without one (bounded, no fixed sleep).
+std::vector<fw::CanFrame> collect_many(SocketCanBus& bus, std::size_t n, std::size_t batch,
+                                       std::chrono::nanoseconds quiet = kWait) {
+  std::vector<fw::CanFrame> out;
+  std::vector<fw::CanFrame> buf(batch);
+  while (out.size() < n && bus.wait_readable(quiet)) {
+    BusStatus s = BusStatus::kOk;
+    const std::size_t got = bus.receive_many(buf, s);
+    out.insert(out.end(), buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(got));
+    if (s != BusStatus::kOk && s != BusStatus::kWouldBlock) break;
+  }
+  return out;
+}
+
+TEST(SocketCanHil, SendManyAndReceiveManyKeepOrderContentAndTimestamps) {
+  SocketCanBus a(config("vcan0"));
+  SocketCanBus b(config("vcan0"));
+  std::vector<fw::CanFrame> sent;
+  sent.push_back(frame(0x080, {}));
+  for (std::uint8_t node = 1; node <= 4; ++node)
+    sent.push_back(frame(0x200u + node, {0x0F, 0x00, node, 0x03}));
+  sent.push_back(frame(0x77F, {0x05}));
+  sent.push_back(frame(0x1ABCDEF0, {1, 2, 3, 4, 5, 6, 7, 8}, true));
+  const std::uint64_t before = realtime_ns();
+  BusStatus s = BusStatus::kIoError;
+  ASSERT_EQ(a.send_many(sent, s), sent.size());
+  EXPECT_EQ(s, BusStatus::kOk);
+  EXPECT_EQ(a.counters().tx_frames, sent.size());
+  // Batches of 3 (fewer than were sent) and of 16 (more): the same frames in order.
+  const auto got = collect_many(b, sent.size(), 3);
+  const std::uint64_t after = realtime_ns();
+  ASSERT_EQ(got.size(), sent.size());
+  std::uint64_t previous = 0;
+  for (std::size_t i = 0; i < sent.size(); ++i) {
+    EXPECT_EQ(got[i], sent[i]) << "frame " << i;
+    EXPECT_GE(got[i].timestamp_ns, before) << "kernel timestamp per message, CLOCK_REALTIME";
+    EXPECT_LE(got[i].timestamp_ns, after);
+    EXPECT_GE(got[i].timestamp_ns, previous);
+    previous = got[i].timestamp_ns;
+  }
+  EXPECT_EQ(b.counters().rx_frames, sent.size());
+  std::vector<fw::CanFrame> buf(16);
+  EXPECT_EQ(b.receive_many(buf, s), 0u);
+  EXPECT_EQ(s, BusStatus::kWouldBlock) << "nothing pending";
+}
+
+TEST(SocketCanHil, SendManyStopsAtAFrameItCannotSend) {
+  SocketCanBus a(config("vcan0"));
+  SocketCanBus b(config("vcan0"));
+  fw::CanFrame too_long = frame(0x203, {1, 2, 3, 4, 5, 6, 7, 8});
+  too_long.dlc = 9;  // not a classic CAN frame
+  const std::vector<fw::CanFrame> batch = {frame(0x201, {1}), frame(0x202, {2}), too_long,
+                                           frame(0x204, {4})};
+  BusStatus s = BusStatus::kOk;
+  EXPECT_EQ(a.send_many(batch, s), 2u);
+  EXPECT_EQ(s, BusStatus::kIoError);
+  EXPECT_EQ(a.last_errno(), EINVAL);
+  EXPECT_EQ(a.counters().tx_frames, 2u);
+  EXPECT_EQ(a.counters().tx_dropped, 2u) << "the bad frame and the one after it";
+  const auto got = collect_many(b, 3, 16, 300ms);
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[0], batch[0]);
+  EXPECT_EQ(got[1], batch[1]);
+}
+
 TEST(SocketCanHil, SendReceiveAndRestartAllocateNothing) {
   SocketCanBus a(config("vcan0"));
   SocketCanBus b(config("vcan0"));
   const fw::CanFrame sync = frame(0x080, {});
   const fw::CanFrame rpdo = frame(0x201, {1, 2, 3, 4});  // built here: the helper allocates
+  const std::array<fw::CanFrame, 2> cycle_frames{sync, rpdo};
   fw::CanFrame f;
+  std::array<fw::CanFrame, 8> batch;
   std::size_t received = 0;
   const long before = dualv::test::allocation_count();
   for (int cycle = 0; cycle < 200; ++cycle) {
@@ -153,6 +221,9 @@ TEST(SocketCanHil, SendReceiveAndRestartAllocateNothing) {
     while (b.receive(f) == BusStatus::kOk) {
       ++received;
     }
+    BusStatus s = BusStatus::kOk;
+    (void)a.send_many(cycle_frames, s);
+    received += b.receive_many(batch, s);
     (void)a.state();
   }
   (void)b.restart();
@@ -287,10 +358,18 @@ TEST(SocketCanHil, FullTransmitQueueGivesWouldBlockAndIsCounted) {
     if (s == BusStatus::kOk) ++ok;
     if (s == BusStatus::kWouldBlock) ++blocked;
   }
+  // The same full queue for a batch: the frames up to the full queue are sent, then
+  // kWouldBlock (ENOBUFS) for the rest.
+  std::vector<fw::CanFrame> more;
+  for (std::uint8_t i = 0; i < 5; ++i) more.push_back(frame(0x202, {i}));
+  BusStatus batch_status = BusStatus::kOk;
+  const std::size_t batch_sent = tx.send_many(more, batch_status);
   shell("tc qdisc del dev vcan1 root >/dev/null 2>&1");
+  EXPECT_EQ(batch_sent, 0u) << "the plug still holds 3 frames";
+  EXPECT_EQ(batch_status, BusStatus::kWouldBlock);
   EXPECT_EQ(ok, 3);
   EXPECT_EQ(blocked, 7);
-  EXPECT_EQ(tx.counters().tx_dropped, 7u);
+  EXPECT_EQ(tx.counters().tx_dropped, 7u + 5u);
   EXPECT_EQ(tx.last_errno(), ENOBUFS);
   EXPECT_EQ(tx.state(), BusStatus::kOk) << "a full queue is not a bus fault";
   ASSERT_EQ(tx.send(frame(0x201, {0xAA})), BusStatus::kOk);

@@ -118,6 +118,30 @@ TEST(InProcessBus, FailNextSendsReturnsWouldBlockAndCounts) {
   EXPECT_EQ(tags(drain(hub.endpoint(1))), (std::vector<std::uint8_t>{3}));
 }
 
+// CanBus's batch calls (one syscall per batch on SocketCAN, tests/hil/socketcan_hil_test.cpp)
+// as every backend inherits them: in order, stopping at the first refusal.
+TEST(InProcessBus, SendManyStopsAtTheFirstRefusalAndReceiveManyTakesInOrder) {
+  InProcessHub hub(2);
+  CanBus& a = hub.endpoint(0);
+  CanBus& b = hub.endpoint(1);
+  const std::vector<fw::CanFrame> batch = {make_frame(0x080, 1, 0), make_frame(0x201, 2),
+                                           make_frame(0x202, 3), make_frame(0x203, 4)};
+  BusStatus s = BusStatus::kIoError;
+  EXPECT_EQ(a.send_many(batch, s), 4u);
+  EXPECT_EQ(s, BusStatus::kOk);
+  hub.endpoint(0).fail_next_sends(1);
+  EXPECT_EQ(a.send_many(std::span(batch).subspan(1), s), 0u);
+  EXPECT_EQ(s, BusStatus::kWouldBlock);
+  std::vector<fw::CanFrame> got(3);
+  EXPECT_EQ(b.receive_many(got, s), 3u);
+  EXPECT_EQ(s, BusStatus::kOk) << "the span is full: more may be pending";
+  EXPECT_EQ(got[0].id, 0x080u);
+  EXPECT_EQ(got[2], batch[2]);
+  EXPECT_EQ(b.receive_many(got, s), 1u);
+  EXPECT_EQ(s, BusStatus::kWouldBlock);
+  EXPECT_EQ(got[0], batch[3]);
+}
+
 TEST(InProcessBus, DropNextLosesFramesSilentlyForTheSender) {
   InProcessHub hub(3);
   auto& a = hub.endpoint(0);
