@@ -2,8 +2,10 @@
 // plant as their own process on a SocketCAN interface: four CiA 402 drives that a master
 // (`dualv run --can IFACE`, or candump/cansend by hand) boots and drives over the bus.
 //
-// Non-real-time loop: wait_readable (at most 0.5 ms) -> poll(CLOCK_MONOTONIC), so timers
-// (heartbeats, consumer timeouts, RPDO deadlines) have about 0.5 ms resolution; the plant
+// Non-real-time loop: wait_readable until a frame comes or the emulator's next timer is due
+// (DriveEmulator::next_due_ns: heartbeats, consumer timeouts, RPDO deadlines, event TPDOs)
+// -> poll(CLOCK_MONOTONIC) -> the answers sent in one batch (drivers/can/batching_bus.hpp);
+// one wake-up per burst of frames and none between them. The plant
 // advances by the actual spacing of the SYNCs received (kernel receive timestamps), so it
 // moves in real time whatever period the master runs at. A foreign drive (a vendor stack
 // this project did not write) is emulated with --upload-without-size (expedited SDO
@@ -19,6 +21,7 @@
 #include <fmt/core.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -33,6 +36,7 @@
 #include "apps/commands.hpp"
 #include "apps/config_path.hpp"
 #include "control/config/model_config.hpp"
+#include "drivers/can/batching_bus.hpp"
 #include "drivers/can/socketcan_bus.hpp"
 #include "drivers/canopen_config.hpp"
 #include "firmware_if/eds.hpp"
@@ -154,9 +158,10 @@ int run_sim(const SimArgs& a) {
   drivers::SocketCanConfig bus_cfg;
   bus_cfg.interface = can.interface;
   drivers::SocketCanBus bus(bus_cfg);
+  drivers::BatchingBus batched(bus);
   std::unique_ptr<sim::DriveEmulator> emu_owner;
   try {
-    emu_owner = std::make_unique<sim::DriveEmulator>(bus, plant, emu_cfg);
+    emu_owner = std::make_unique<sim::DriveEmulator>(batched, plant, emu_cfg);
   } catch (const std::invalid_argument& e) {
     fmt::print(stderr, "dualv sim: {}\n", e.what());
     return 2;
@@ -200,18 +205,33 @@ int run_sim(const SimArgs& a) {
   };
   auto seconds = [](std::uint64_t ns) { return static_cast<double>(ns) * 1e-9; };
   emu.poll(now_ns());  // power on: boot-up messages
+  (void)batched.flush();
   fmt::print("dualv sim: drives booted (boot-up sent)\n");
   std::fflush(stdout);
 
   bool estop_done = false, release_done = false, fault_done = false;
   double next_status = a.status_every > 0 ? a.status_every : -1.0;
   const char* reason = "signal";
+  // Sleeps until a frame arrives or the next thing is due (the emulator's timers, the test
+  // hooks, the status line), at most 100 ms: one wake-up per burst of frames, none in between.
+  auto due_at = [](double s) {
+    return s >= 0 ? static_cast<std::uint64_t>(std::llround(s * 1e9)) : sim::DriveEmulator::kNever;
+  };
+  std::uint64_t before = now_ns();
   while (g_stop == 0) {
-    bus.wait_readable(std::chrono::microseconds(500));
+    std::uint64_t wake = std::min(emu.next_due_ns(before), before + 100'000'000u);
+    if (!estop_done) wake = std::min(wake, due_at(a.estop_after));
+    if (!release_done) wake = std::min(wake, due_at(a.estop_release_after));
+    if (!fault_done) wake = std::min(wake, due_at(a.fault_after));
+    wake = std::min({wake, due_at(next_status), due_at(a.exit_after)});
+    if (a.exit_when_idle > 0) wake = std::min(wake, emu.last_frame_ns() + due_at(a.exit_when_idle));
+    if (wake > before) bus.wait_readable(std::chrono::nanoseconds(wake - before));
     const std::uint64_t now = now_ns();
+    before = now;  // the next wait is computed from here (a clock read less per wake-up)
     emu.poll(now);
+    (void)batched.flush();  // every answer of this wake-up in one sendmmsg
     const double t = seconds(now);
-    if (bus.state() == drivers::BusStatus::kBusOff && bus.restart() == drivers::BusStatus::kOk)
+    if (bus.state() == drivers::BusStatus::kBusOff && batched.restart() == drivers::BusStatus::kOk)
       fmt::print("dualv sim: bus-off, restarted\n");
     if (a.estop_after >= 0 && !estop_done && t >= a.estop_after) {
       emu.press_estop(true);

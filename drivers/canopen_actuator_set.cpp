@@ -252,6 +252,7 @@ void CanopenActuatorSet::dispatch(const fw::CanFrame& f, std::uint64_t now) noex
 
 IoStatus CanopenActuatorSet::read(ActuatorFeedback& fb) noexcept {
   const std::uint64_t now = clock_.now_ns();
+  cycle_now_ns_ = now;  // write() of this cycle uses it: one clock read per cycle
   events_ = write_events_;
   write_events_ = CycleEvents{};
   tpdos_this_cycle_.fill(0);
@@ -316,7 +317,10 @@ IoStatus CanopenActuatorSet::read(ActuatorFeedback& fb) noexcept {
 }
 
 IoStatus CanopenActuatorSet::write(const ActuatorCommand& command) noexcept {
-  const std::uint64_t now = clock_.now_ns();
+  // The time read() took for this cycle (the cycle's time, tens of microseconds earlier), or
+  // the clock's when write() comes without read() (priming, shutdown).
+  const std::uint64_t now = cycle_now_ns_ != 0 ? cycle_now_ns_ : clock_.now_ns();
+  cycle_now_ns_ = 0;
   ++cycle_;
   ++counters_.cycles;
   const bool shape_ok = command.n == n_;

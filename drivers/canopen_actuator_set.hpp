@@ -235,6 +235,7 @@ class CanopenActuatorSet final : public ActuatorSet {
   canopen::SyncProducer sync_;
   canopen::HeartbeatProducer heartbeat_producer_;
   bool sync_sent_last_cycle_ = false;
+  std::uint64_t cycle_now_ns_ = 0;  // read()'s time for this cycle's write(); 0 = none
   std::uint8_t foreign_sync_counter_ = 0;
   bool bus_off_ = false;
   std::uint64_t cycle_ = 0;

@@ -992,6 +992,34 @@ struct DriveEmulator::Drive {
     }
   }
 
+  // The earliest time at or after `now` at which on_time has something to do, mirroring
+  // on_time above (kNever when nothing is scheduled): a caller may sleep until then.
+  std::uint64_t next_due_ns(std::uint64_t now) const noexcept {
+    if (boot_pending && !refuse_boot) return now;
+    if (nmt == EmulatedNmt::kInitialisation) return kNever;
+    std::uint64_t due = kNever;
+    const std::uint64_t hb_ns = static_cast<std::uint64_t>(u(s_hb_prod)) * 1'000'000u;
+    if (hb_ns != 0) due = std::min(due, next_hb_ns);
+    for (std::size_t c = 0; c < kEmulatedConsumerHeartbeats; ++c) {
+      const std::uint64_t t_ns =
+          static_cast<std::uint64_t>(fw::consumer_heartbeat_time_ms(u(s_hb_cons[c]))) * 1'000'000u;
+      if (t_ns != 0 && hb_armed[c] && !hb_lost[c]) due = std::min(due, hb_last_ns[c] + t_ns);
+    }
+    if (nmt != EmulatedNmt::kOperational) return std::max(due, now);
+    for (const Pdo& p : rpdo)
+      if (p.valid && p.event_ms != 0 && p.deadline_armed)
+        due = std::min(due, p.last_rx_ns + static_cast<std::uint64_t>(p.event_ms) * 1'000'000u);
+    for (const Pdo& p : tpdo) {
+      if (!p.valid || p.count == 0 || (p.type >= 1 && p.type <= 240) || silent) continue;
+      std::uint64_t t = p.change_pending ? now : kNever;
+      if (p.event_ms != 0) t = std::min(t, p.next_event_ns);
+      if (t != kNever && p.sent_once && p.inhibit_ns != 0)
+        t = std::max(t, p.last_tx_ns + p.inhibit_ns);
+      due = std::min(due, t);
+    }
+    return std::max(due, now);
+  }
+
   void on_heartbeat(DriveEmulator& emu, const fw::Heartbeat& hb, std::uint64_t now) noexcept {
     for (std::size_t c = 0; c < kEmulatedConsumerHeartbeats; ++c) {
       const std::uint32_t v = u(s_hb_cons[c]);
@@ -1143,6 +1171,19 @@ void DriveEmulator::on_time(std::uint64_t now_ns) noexcept {
     free_running_ = true;
   for (int guard = 0; free_running_ && now_ns - last_advance_ns_ >= p && guard < 100'000; ++guard)
     sync(last_advance_ns_ + p, false);
+}
+
+std::uint64_t DriveEmulator::next_due_ns(std::uint64_t now_ns) const noexcept {
+  if (!powered_) return now_ns;
+  std::uint64_t due = kNever;
+  for (int k = 0; k < n_; ++k)
+    due = std::min(due, drives_[static_cast<std::size_t>(k)]->next_due_ns(now_ns));
+  if (plant_started_ && config_.free_run_after_ns != 0) {
+    const auto p = static_cast<std::uint64_t>(std::llround(period_s() * 1e9));
+    if (p != 0)
+      due = std::min(due, last_advance_ns_ + (free_running_ ? p : config_.free_run_after_ns));
+  }
+  return std::max(due, now_ns);
 }
 
 void DriveEmulator::press_estop(bool pressed) noexcept {

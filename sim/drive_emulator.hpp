@@ -233,6 +233,12 @@ class DriveEmulator {
   std::size_t poll(std::uint64_t now_ns) noexcept;
   void on_frame(const fw::CanFrame& frame, std::uint64_t now_ns) noexcept;
   void on_time(std::uint64_t now_ns) noexcept;
+  // The earliest time (>= now_ns) at which on_time has something to do: heartbeats, consumer
+  // heartbeat and RPDO deadlines, event TPDOs, the plant's free run; kNever when nothing is
+  // scheduled. A process that owns the emulator sleeps until then or until a frame arrives
+  // (apps/cmd_sim.cpp), instead of waking on a fixed tick.
+  static constexpr std::uint64_t kNever = ~std::uint64_t{0};
+  std::uint64_t next_due_ns(std::uint64_t now_ns) const noexcept;
 
   // ---- inputs and fault injection (tests, CLI); noexcept ------------------------------
   // The e-stop circuit: every drive's 60FDh e-stop bit (the circuit is shared).

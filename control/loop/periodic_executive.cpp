@@ -189,13 +189,16 @@ const CycleInfo& PeriodicExecutive::next() noexcept {
   info_.lateness_ns = wake - release_;
   info_.skipped_releases = skipped_;
   info_.consecutive_misses = stats_.consecutive_misses();
-  work_start_ = work_clock_ != nullptr ? work_clock_->now_ns() : wake;
+  // The same clock twice is read once (each read is a syscall where there is no vDSO, as in
+  // the user-mode-linux HIL guest).
+  work_start_ = work_clock_ != nullptr && work_clock_ != &clock_ ? work_clock_->now_ns() : wake;
   return info_;
 }
 
 void PeriodicExecutive::done() noexcept {
   const std::int64_t end = clock_.now_ns();
-  const std::int64_t work_end = work_clock_ != nullptr ? work_clock_->now_ns() : end;
+  const std::int64_t work_end =
+      work_clock_ != nullptr && work_clock_ != &clock_ ? work_clock_->now_ns() : end;
   stats_.record(info_.lateness_ns, work_end - work_start_, end - release_);
   ++report_.cycles;
   // Next release on the original grid; skip the ones this cycle ran past.
