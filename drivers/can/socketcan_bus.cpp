@@ -1,5 +1,7 @@
 #include "drivers/can/socketcan_bus.hpp"
 
+#include "drivers/can/kernel_frame.hpp"
+
 #include <fcntl.h>
 #include <linux/can.h>
 #include <linux/can/error.h>
@@ -98,6 +100,7 @@ SocketCanBus::SocketCanBus(const SocketCanConfig& config) : interface_(config.in
                         ifname + " up` (a real controller also needs `type can bitrate ...`)");
   }
 
+  const int on_fd = 1;
   if (!config.filters.empty()) {
     std::vector<can_filter> filters;
     filters.reserve(config.filters.size());
@@ -117,6 +120,22 @@ SocketCanBus::SocketCanBus(const SocketCanConfig& config) : interface_(config.in
     set_option(fd, SOL_CAN_RAW, CAN_RAW_FILTER, filters.data(),
                static_cast<socklen_t>(filters.size() * sizeof(can_filter)), ifname,
                "receive filters (CAN_RAW_FILTER)");
+  }
+  if (config.fd_frames) {
+    std::memset(&ifr, 0, sizeof(ifr));
+    std::memcpy(ifr.ifr_name, ifname.c_str(), ifname.size() + 1);
+    if (::ioctl(fd, SIOCGIFMTU, &ifr) == 0 && ifr.ifr_mtu != static_cast<int>(CANFD_MTU)) {
+      const int mtu = ifr.ifr_mtu;
+      ::close(fd);
+      throw CanSetupError("CAN interface '" + ifname + "' does not carry CAN FD frames (MTU " +
+                          std::to_string(mtu) + ", CAN FD needs " + std::to_string(CANFD_MTU) +
+                          ") but can.bus_layout is fd: for vcan run `ip link set " + ifname +
+                          " mtu 72`, for a controller `ip link set " + ifname +
+                          " up type can bitrate 1000000 dbitrate 5000000 fd on` (can.bitrate, "
+                          "can.fd.data_bitrate), or use can.bus_layout: per_drive or broadcast");
+    }
+    set_option(fd, SOL_CAN_RAW, CAN_RAW_FD_FRAMES, &on_fd, sizeof(on_fd), ifname,
+               "CAN FD frames (CAN_RAW_FD_FRAMES)");
   }
   const can_err_mask_t err_mask = CAN_ERR_MASK;
   set_option(fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof(err_mask), ifname,
@@ -143,6 +162,7 @@ SocketCanBus::SocketCanBus(const SocketCanConfig& config) : interface_(config.in
     throw CanSetupError("CAN interface '" + ifname + "': bind failed: " + errno_text(err));
   }
   fd_ = fd;
+  fd_frames_ = config.fd_frames;
   virtual_ = sysfs_says_virtual(ifname);
 }
 
@@ -160,21 +180,15 @@ BusStatus SocketCanBus::send(const fw::CanFrame& frame) noexcept {
     ++counters_.tx_dropped;
     return BusStatus::kBusOff;
   }
-  if (frame.dlc > CAN_MAX_DLEN) {
+  canfd_frame kf;
+  const std::size_t size = to_kernel(frame, fd_frames_, kf);
+  if (size == 0) {
     ++counters_.tx_dropped;
     last_errno_ = EINVAL;
     return BusStatus::kIoError;
   }
-  can_frame cf{};
-  cf.can_id =
-      frame.extended ? ((frame.id & CAN_EFF_MASK) | CAN_EFF_FLAG) : (frame.id & CAN_SFF_MASK);
-  if (frame.rtr) {
-    cf.can_id |= CAN_RTR_FLAG;
-  }
-  cf.len = frame.dlc;
-  std::memcpy(cf.data, frame.data.data(), frame.dlc);
-  const ssize_t n = ::send(fd_, &cf, sizeof(cf), MSG_DONTWAIT);
-  if (n == static_cast<ssize_t>(sizeof(cf))) {
+  const ssize_t n = ::send(fd_, &kf, size, MSG_DONTWAIT);
+  if (n == static_cast<ssize_t>(size)) {
     ++counters_.tx_frames;
     return BusStatus::kOk;
   }
@@ -191,7 +205,7 @@ BusStatus SocketCanBus::send(const fw::CanFrame& frame) noexcept {
 }
 
 SocketCanBus::Read SocketCanBus::read_one(fw::CanFrame& frame) noexcept {
-  can_frame cf{};
+  canfd_frame cf{};
   iovec iov{&cf, sizeof(cf)};
   // Room for the timestamp and the drop counter; on the stack, nothing allocated.
   alignas(cmsghdr) unsigned char
@@ -209,8 +223,8 @@ SocketCanBus::Read SocketCanBus::read_one(fw::CanFrame& frame) noexcept {
     last_errno_ = errno;
     return Read::kFailed;
   }
-  if (n != static_cast<ssize_t>(sizeof(cf))) {
-    last_errno_ = EPROTO;  // CAN FD frames are not enabled on this socket
+  if (n != static_cast<ssize_t>(CAN_MTU) && n != static_cast<ssize_t>(CANFD_MTU)) {
+    last_errno_ = EPROTO;  // neither a classic nor an FD frame
     return Read::kFailed;
   }
   std::uint64_t stamp = 0;
@@ -237,12 +251,7 @@ SocketCanBus::Read SocketCanBus::read_one(fw::CanFrame& frame) noexcept {
     on_error_frame(cf.can_id, data);
     return Read::kErrorFrame;
   }
-  frame.extended = (cf.can_id & CAN_EFF_FLAG) != 0;
-  frame.rtr = (cf.can_id & CAN_RTR_FLAG) != 0;
-  frame.id = cf.can_id & (frame.extended ? CAN_EFF_MASK : CAN_SFF_MASK);
-  frame.dlc = std::min<std::uint8_t>(cf.len, CAN_MAX_DLEN);
-  frame.data = {};
-  std::memcpy(frame.data.data(), cf.data, frame.dlc);
+  from_kernel(cf, n, frame);
   frame.timestamp_ns = stamp;
   return Read::kFrame;
 }
