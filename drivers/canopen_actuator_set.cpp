@@ -119,7 +119,7 @@ BusStatus CanopenActuatorSet::send(const fw::CanFrame& f) noexcept {
 void CanopenActuatorSet::on_tpdo(int i, const fw::CanFrame& f) noexcept {
   DriveCounters& c = drive_counters_[i];
   fw::Result<fw::DriveFeedback> fb = fw::Error::kWrongDlc;
-  if (config_.rpdo_layout == fw::RpdoLayoutKind::kPerDrive) {
+  if (config_.bus_layout != fw::BusLayout::kBroadcast) {  // per_drive, fd (an FD frame)
     fb = fw::decode_tpdo1(f);
   } else {  // position alone; the statusword comes in TPDO3 (on_statusword_tpdo)
     const fw::Result<std::int32_t> pos = fw::decode_position_tpdo(f);
@@ -160,7 +160,7 @@ void CanopenActuatorSet::on_statusword_tpdo(int i, const fw::CanFrame& f) noexce
 }
 
 bool CanopenActuatorSet::statusword_current(int i) const noexcept {
-  if (config_.rpdo_layout == fw::RpdoLayoutKind::kPerDrive) return true;  // in every TPDO1
+  if (config_.bus_layout != fw::BusLayout::kBroadcast) return true;  // in every TPDO1
   return statusword_seen_[i] && cycles_since_statusword_[i] <= statusword_bound_cycles_;
 }
 
@@ -178,7 +178,7 @@ void CanopenActuatorSet::dispatch(const fw::CanFrame& f, std::uint64_t now) noex
       return;
     case fw::Function::kTpdo3:
       // The statusword TPDO of the broadcast layout; another TPDO3 is not ours.
-      if (i < 0 || config_.rpdo_layout == fw::RpdoLayoutKind::kPerDrive) break;
+      if (i < 0 || config_.bus_layout != fw::BusLayout::kBroadcast) break;
       on_statusword_tpdo(i, f);
       return;
     case fw::Function::kTpdo2: {
@@ -349,13 +349,22 @@ IoStatus CanopenActuatorSet::write(const ActuatorCommand& command) noexcept {
   events_.own_stop |= write_events_.own_stop;
   events_.transition_timeout |= write_events_.transition_timeout;
 
-  if (config_.rpdo_layout == fw::RpdoLayoutKind::kPerDrive) {
+  if (config_.bus_layout == fw::BusLayout::kPerDrive) {
     for (int i = 0; i < n_ && !bus_off_; ++i) {
       const fw::Result<fw::CanFrame> f = fw::encode_rpdo1(
           config_.drives[static_cast<std::size_t>(i)].node_id, {sent_[i].controlword, torque[i]});
       sent_[i].sent = f && send(*f) == BusStatus::kOk;
       ok = ok && sent_[i].sent;
     }
+  } else if (config_.bus_layout == fw::BusLayout::kFd) {
+    // One CAN FD frame with every drive's controlword + torque (firmware_if/pdo.hpp).
+    fw::FdCommands c;
+    c.drives = static_cast<std::uint8_t>(n_);
+    for (int i = 0; i < n_; ++i) c.command[i] = {sent_[i].controlword, torque[i]};
+    const fw::Result<fw::CanFrame> f = fw::encode_fd_commands(c);
+    const bool sent = !bus_off_ && f && send(*f) == BusStatus::kOk;
+    for (int i = 0; i < n_; ++i) sent_[i].sent = sent;
+    ok = ok && sent;
   } else {
     for (int i = 0; i < n_ && !bus_off_; ++i) {
       // On change, at most once per can.controlword_inhibit (a change waits it out, the

@@ -280,7 +280,7 @@ TEST_F(MasterEmulator, ForeignDriveBootsAndRuns) {
 // the wire (a monitor sees every frame) against the frames the layout defines.
 TEST(MasterEmulatorBroadcast, BootsRunsAndTheWireIsTheLayout) {
   drivers::CanConfig c = drivers::load_can_config_file(test::config_file());
-  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  c.bus_layout = fw::BusLayout::kBroadcast;
   InProcessCanRig r(test::dual_v(), load_plant_config_file(test::config_file()), c, 4096);
   drivers::canopen::ManualClock clk;
   RigWaiter w(r, clk);
@@ -370,7 +370,7 @@ TEST(MasterEmulatorBroadcast, BootsRunsAndTheWireIsTheLayout) {
 
 TEST(MasterEmulatorBroadcast, DriveWithoutDummyMappingRefusedByName) {
   drivers::CanConfig c = drivers::load_can_config_file(test::config_file());
-  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  c.bus_layout = fw::BusLayout::kBroadcast;
   DriveEmulatorConfig e = emulator_config_from(c);
   e.refuse_dummy_mapping = true;
   InProcessCanRig r(test::dual_v(), load_plant_config_file(test::config_file()), e);

@@ -60,9 +60,9 @@ struct PaperRun {
   std::array<bool, 4> enabled_seen{};  // Operation enabled seen in a statusword per drive
 };
 
-PaperRun run_paper(fw::RpdoLayoutKind layout) {
+PaperRun run_paper(fw::BusLayout layout) {
   drivers::CanConfig can = drivers::load_can_config_file(robot().path);
-  can.rpdo_layout = layout;
+  can.bus_layout = layout;
   InProcessCanRig rig(robot().model, robot().plant, can, 4096);
   RigClock clock(rig);
   RigWaiter waiter(rig);
@@ -72,7 +72,7 @@ PaperRun run_paper(fw::RpdoLayoutKind layout) {
   control::Executor ex(robot().model, robot().control, ec, *drives);
 
   PaperRun r;
-  const bool broadcast = layout == fw::RpdoLayoutKind::kBroadcast;
+  const bool broadcast = layout == fw::BusLayout::kBroadcast;
   auto watch = [&] {
     fw::CanFrame f;
     while (rig.monitor_bus().receive(f) == drivers::BusStatus::kOk) {
@@ -149,8 +149,8 @@ PaperRun run_paper(fw::RpdoLayoutKind layout) {
 }
 
 TEST(BroadcastLayoutOnTheRig, PaperProgramTracksAsThePerDriveLayout) {
-  const PaperRun per_drive = run_paper(fw::RpdoLayoutKind::kPerDrive);
-  const PaperRun broadcast = run_paper(fw::RpdoLayoutKind::kBroadcast);
+  const PaperRun per_drive = run_paper(fw::BusLayout::kPerDrive);
+  const PaperRun broadcast = run_paper(fw::BusLayout::kBroadcast);
   ASSERT_TRUE(per_drive.finished) << per_drive.why;
   ASSERT_TRUE(broadcast.finished) << broadcast.why;
   // The loop tracks at all (README: 0.43 mm with the shipped configuration) ...
