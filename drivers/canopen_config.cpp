@@ -433,15 +433,26 @@ std::string format_bus_load(const CanConfig& config, const fw::LayoutLoad& r) {
 fw::LayoutLoad require_bus_load_fits(const CanConfig& config) {
   const fw::LayoutLoad r = bus_load_report(config);
   if (!r.fits) {
-    const double needed = static_cast<double>(r.cyclic_bits.total()) * config.cycle_hz();
+    // Classic: bits x rate against the bit rate; CAN FD: bus time, the arbitration phase at
+    // can.bitrate and the data phase at can.fd.data_bitrate.
+    const std::string demand =
+        config.bus_layout == fw::BusLayout::kFd
+            ? fmt::format(
+                  "{:.1f} us of bus time a cycle worst case ({} bits at {} bit/s + {} "
+                  "data-phase bits at can.fd.data_bitrate {} bit/s)",
+                  1e6 * r.cycle_time_s, r.cyclic_bits.nominal, config.bitrate, r.cyclic_bits.data,
+                  config.data_bitrate)
+            : fmt::format("{:.0f} bit/s worst case ({} bits/cycle) on a {} bit/s bus",
+                          static_cast<double>(r.cyclic_bits.total()) * config.cycle_hz(),
+                          r.cyclic_bits.total(), config.bitrate);
     throw ConfigError({fmt::format(
-        "can.sync.period: {:.1f} Hz with the {} layout needs {:.0f} bit/s worst case ({} "
-        "bits/cycle) on a {} bit/s bus: {:.1f} % cyclic (can.max_cyclic_load {:.1f} %), {:.1f} % "
-        "with event PDOs at their inhibit times (can.max_bus_load {:.1f} %); lower the rate to at "
-        "most {:.1f} Hz{} (dualv bus-load compares the layouts)",
-        config.cycle_hz(), fw::to_string(r.layout), needed, r.cyclic_bits.total(), config.bitrate,
-        100.0 * r.cyclic_load, 100.0 * config.max_cyclic_load, 100.0 * r.total_load,
-        100.0 * config.max_bus_load, r.max_rate_hz,
+        "can.sync.period: {:.1f} Hz with the {} layout needs {}: {:.1f} % cyclic "
+        "(can.max_cyclic_load {:.1f} %), {:.1f} % with event PDOs at their inhibit times "
+        "(can.max_bus_load {:.1f} %); lower the rate to at most {:.1f} Hz{} (dualv bus-load "
+        "compares the layouts)",
+        config.cycle_hz(), fw::to_string(r.layout), demand, 100.0 * r.cyclic_load,
+        100.0 * config.max_cyclic_load, 100.0 * r.total_load, 100.0 * config.max_bus_load,
+        r.max_rate_hz,
         config.bus_layout == fw::BusLayout::kPerDrive    ? " or use can.bus_layout: broadcast or fd"
         : config.bus_layout == fw::BusLayout::kBroadcast ? " or use can.bus_layout: fd"
                                                          : "")});

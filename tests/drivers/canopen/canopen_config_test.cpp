@@ -125,7 +125,8 @@ TEST(CanConfigRules, Bitrate) {
 }
 TEST(CanConfigRules, MaxBusLoad) { expect_error("can: {max_bus_load: 1.5}", "can.max_bus_load"); }
 TEST(CanConfigRules, Layout) {
-  expect_error("can: {bus_layout: multicast}", "can.bus_layout: must be per_drive or broadcast");
+  expect_error("can: {bus_layout: multicast}",
+               "can.bus_layout: must be per_drive, broadcast or fd (got 'multicast')");
   expect_error("can: {max_cyclic_load: 0.97}",
                "can.max_cyclic_load: must be in (0, can.max_bus_load");
   expect_error("can: {controlword_inhibit: 0.2}",
@@ -394,6 +395,55 @@ TEST(CanBusLoad, TooFastRateRefusedWithTheNumbers) {
   EXPECT_THROW((void)require_bus_load_fits(c), ConfigError);
   c.sync_period_ns = 1'000'000;
   EXPECT_NO_THROW((void)require_bus_load_fits(c));
+}
+
+TEST(CanConfigRules, OldLayoutKeyNamesTheNewOne) {
+  expect_error("can: {rpdo_layout: broadcast}", "can.rpdo_layout: renamed can.bus_layout");
+}
+TEST(CanConfigRules, FdKeys) {
+  expect_error("can: {fd: {nominal_bitrate: 1000000, data_bitrate: 5000000}}",
+               "can.fd.nominal_bitrate: the nominal (arbitration-phase) rate is can.bitrate");
+  expect_error("can: {fd: {data_bitrate: 500000}}",
+               "can.fd.data_bitrate: must be in [can.bitrate = 1000000, 8000000] bit/s (got "
+               "500000)");
+  expect_error("can: {fd: {data_bitrate: 10000000}}", "can.fd.data_bitrate: must be in");
+  expect_error("can: {fd: {databitrate: 5000000}}", "can.fd.databitrate: unknown key");
+  expect_error(R"(can:
+  bus_layout: fd
+  drives: [{node_id: 1}, {node_id: 2}, {node_id: 3}, {node_id: 4}, {node_id: 5}]
+)",
+               "can.bus_layout: fd carries at most 4 drives in one FD RPDO (got 5)");
+  const CanConfig c = load("can: {bus_layout: fd, fd: {data_bitrate: 2000000}}");
+  EXPECT_EQ(c.bus_layout, fw::BusLayout::kFd);
+  EXPECT_EQ(c.data_bitrate, 2'000'000u);
+}
+
+TEST(CanBusLoad, FdCarriesTwoPointFiveKilohertzAtFiveMegabit) {
+  // Issue 15's target: >= 2.5 kHz at <= 90 %. firmware_if/bus_layout.hpp's worst case for four
+  // drives: 220 bits at 1 Mbit/s + 570 data-phase bits at 5 Mbit/s = 334 us a cycle.
+  CanConfig c = default_can_config();
+  c.bus_layout = fw::BusLayout::kFd;
+  c.sync_period_ns = 400'000;  // 2.5 kHz
+  c.transition_timeout_ns = 500'000'000;
+  const fw::LayoutLoad r = require_bus_load_fits(c);
+  EXPECT_NEAR(r.cyclic_load, 334e-6 * 2500.0, 1e-9);
+  // The data phase at 2 Mbit/s: 220 us + 285 us = 505 us, 126 % at 2.5 kHz: refused, with the
+  // data rate in the message.
+  c.data_bitrate = 2'000'000;
+  try {
+    (void)require_bus_load_fits(c);
+    FAIL();
+  } catch (const ConfigError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("2500.0 Hz with the fd layout"), std::string::npos) << m;
+    EXPECT_NE(m.find("needs 505.0 us of bus time a cycle worst case (220 bits at 1000000 bit/s + "
+                     "570 data-phase bits at can.fd.data_bitrate 2000000 bit/s)"),
+              std::string::npos)
+        << m;
+    EXPECT_NE(m.find("at most 1782.2 Hz"), std::string::npos) << m;  // 0.9 / 505 us
+  }
+  EXPECT_NE(format_bus_load(c, bus_load_report(c)).find("1000000 / 2000000 (data phase)"),
+            std::string::npos);
 }
 
 TEST(CanBusLoad, BroadcastCarriesOnePointFiveKilohertz) {
