@@ -8,6 +8,8 @@ limit"); candump writes an FD frame as ID##F<data>, F the flags nibble (1 = BRS)
               torque 6071h i16 per mille of 6076h, little endian, drive i at bytes 4i..4i+3),
               16 B for four drives, sent by the master before every SYNC
   180h + id   TPDO1, statusword + position (6 B), a CAN FD frame with BRS, every SYNC
+  280h + id   TPDO2, 60FDh digital inputs (4 B), event driven, a CAN FD frame too (every
+              TPDO of a CAN FD drive is)
   080h        SYNC, a classic frame (as NMT, heartbeat, EMCY, SDO)
 Checks, on the frames only:
   - 200h and TPDO1 frames are FD with BRS and of the layout's size; no classic 200h / TPDO1
@@ -100,6 +102,9 @@ def main():
             tpdos[cob - 0x180] += 1
             if int.from_bytes(data[0:2], "little") & 0x6F == 0x27:
                 enabled[cob - 0x180] = True
+        elif 0x281 <= cob <= 0x2FF and cob - 0x280 in nodes:
+            if not (fd and len(data) == 4):
+                bad.append(f"TPDO2 {cob:03X}h fd={fd} {len(data)} B at {t}")
         elif (0x201 <= cob <= 0x27F and cob - 0x200 in nodes) or (0x381 <= cob <= 0x3FF and cob - 0x380 in nodes):
             bad.append(f"{cob:03X}h is not a frame of the fd layout at {t}")
         elif fd:

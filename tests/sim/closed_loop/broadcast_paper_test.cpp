@@ -77,9 +77,10 @@ PaperRun run_paper(fw::BusLayout layout) {
   auto watch = [&] {
     fw::CanFrame f;
     while (rig.monitor_bus().receive(f) == drivers::BusStatus::kOk) {
-      // CAN FD frames in the fd layout only, and there for the PDOs only (SYNC, NMT,
-      // heartbeat, SDO stay classic).
-      const bool pdo = f.id == fw::kBroadcastRpdoCobId || (f.id >= 0x181 && f.id <= 0x184);
+      // CAN FD frames in the fd layout only, and there for the PDOs only: the RPDO, TPDO1 and
+      // TPDO2 (60FDh digital inputs); SYNC, NMT, heartbeat, EMCY, SDO stay classic.
+      const bool pdo = f.id == fw::kBroadcastRpdoCobId || (f.id >= 0x181 && f.id <= 0x184) ||
+                       (f.id >= 0x281 && f.id <= 0x284);
       if (f.fd != (fd && pdo)) ++r.wrong_frames;
       if (fd && f.id == fw::kBroadcastRpdoCobId) {
         const auto c = fw::decode_fd_commands(f, 4);
