@@ -66,9 +66,11 @@ void register_bus_load_command(CLI::App& app) {
   add_config_option(*cmd, config);
   static CLI::Option* statusword_inhibit = nullptr;
   static CLI::Option* controlword_inhibit = nullptr;
-  cmd->add_option("--data-bitrate", params.data_bitrate, "CAN FD data-phase bit rate [bit/s]")
-      ->capture_default_str()
-      ->check(CLI::Range(1'000'000u, 12'000'000u));
+  static CLI::Option* data_bitrate = nullptr;
+  data_bitrate = cmd->add_option("--data-bitrate", params.data_bitrate,
+                                 "CAN FD data-phase bit rate [bit/s] (default: "
+                                 "can.fd.data_bitrate)");
+  data_bitrate->check(CLI::Range(1'000'000u, 12'000'000u));
   statusword_inhibit = cmd->add_option("--statusword-inhibit", params.statusword_inhibit_s,
                                        "broadcast layout: the statusword event TPDO's inhibit "
                                        "time [s] (default: can.statusword_inhibit)");
@@ -83,7 +85,7 @@ void register_bus_load_command(CLI::App& app) {
     const fw::LayoutLoad report = drivers::bus_load_report(can);
     fmt::print("{}\n\n", drivers::format_bus_load(can, report));
     fw::BusParams p = drivers::bus_params(can);
-    p.data_bitrate = params.data_bitrate;
+    if (*data_bitrate) p.data_bitrate = params.data_bitrate;
     if (*statusword_inhibit) p.statusword_inhibit_s = params.statusword_inhibit_s;
     if (*controlword_inhibit) p.controlword_inhibit_s = params.controlword_inhibit_s;
     fmt::print("{}", layouts_table(p, can.cycle_hz()));

@@ -11,9 +11,11 @@
 // this project did not write) is emulated with --upload-without-size (expedited SDO
 // uploads e=1, s=0) and --absent OBJ (the drive lacks that object, e.g. 0x60C2); --foreign
 // sets both (uploads without size, no 60C2h); --no-dummy-mapping: drives that cannot map dummy
-// entries (the broadcast layout, issue 15). --eds FILE takes the drives' objects from an
-// EDS (sim/canopen/eds_dictionary.hpp: what the EDS lacks is absent, 1018h identity from its
-// defaults; an EDS entry the emulator does not implement alike is refused). Exits cleanly
+// entries (the broadcast and fd layouts, issue 15); --no-fd: classic drives (PDOs end at 8
+// bytes, so the fd layout is refused at boot). With can.bus_layout: fd the drives speak CAN FD
+// and the socket carries FD frames (the interface needs MTU 72). --eds FILE takes the drives'
+// objects from an EDS (sim/canopen/eds_dictionary.hpp: what the EDS lacks is absent, 1018h identity
+// from its defaults; an EDS entry the emulator does not implement alike is refused). Exits cleanly
 // (status 0) on SIGINT/SIGTERM, --exit-after or --exit-when-idle. Test hooks: --estop-after
 // presses the e-stop input of every drive, --fault-after raises a drive fault with an EMCY
 // code, and so does SIGUSR1 (at a moment a test chooses, e.g. while a program runs: drive
@@ -70,6 +72,7 @@ struct SimArgs {
   bool segmented_upload = false;
   bool upload_without_size = false;
   bool no_dummy_mapping = false;
+  bool no_fd = false;
   std::vector<std::string> absent;
   bool foreign = false;
   std::string eds;  // --eds FILE: the drives' object dictionary from an EDS (CiA 306)
@@ -114,6 +117,7 @@ int run_sim(const SimArgs& a) {
   emu_cfg.segmented_upload = a.segmented_upload;
   emu_cfg.upload_without_size = a.upload_without_size || a.foreign;
   emu_cfg.refuse_dummy_mapping = a.no_dummy_mapping;
+  if (a.no_fd) emu_cfg.fd = false;
   std::vector<std::string> absent = a.absent;
   if (a.foreign) absent.push_back("0x60C2");
   for (const std::string& o : absent) {
@@ -157,6 +161,7 @@ int run_sim(const SimArgs& a) {
   sim::Plant plant(model, sim::emulator_plant_config(sim::load_plant_config_file(file), emu_cfg));
   drivers::SocketCanConfig bus_cfg;
   bus_cfg.interface = can.interface;
+  bus_cfg.fd_frames = can.bus_layout == fw::BusLayout::kFd;
   drivers::SocketCanBus bus(bus_cfg);
   drivers::BatchingBus batched(bus);
   std::unique_ptr<sim::DriveEmulator> emu_owner;
@@ -326,7 +331,10 @@ void register_sim_command(CLI::App& app) {
                 "Answer expedited SDO uploads without size indication (e=1, s=0)");
   cmd->add_flag("--no-dummy-mapping", args->no_dummy_mapping,
                 "Drives that cannot map CiA 301 dummy entries (abort 06040041h): the broadcast "
-                "layout (can.rpdo_layout) is refused at boot");
+                "and fd layouts (can.bus_layout) are refused at boot");
+  cmd->add_flag("--no-fd", args->no_fd,
+                "Classic CAN drives: a PDO mapping beyond 8 bytes is aborted (06040042h), so "
+                "can.bus_layout: fd is refused at boot");
   cmd->add_option("--absent", args->absent,
                   "An object the drives lack (SDO abort 06020000h), e.g. 0x60C2; repeatable");
   cmd->add_flag("--foreign", args->foreign,

@@ -119,7 +119,7 @@ BusStatus CanopenActuatorSet::send(const fw::CanFrame& f) noexcept {
 void CanopenActuatorSet::on_tpdo(int i, const fw::CanFrame& f) noexcept {
   DriveCounters& c = drive_counters_[i];
   fw::Result<fw::DriveFeedback> fb = fw::Error::kWrongDlc;
-  if (config_.rpdo_layout == fw::RpdoLayoutKind::kPerDrive) {
+  if (config_.bus_layout != fw::BusLayout::kBroadcast) {  // per_drive, fd (an FD frame)
     fb = fw::decode_tpdo1(f);
   } else {  // position alone; the statusword comes in TPDO3 (on_statusword_tpdo)
     const fw::Result<std::int32_t> pos = fw::decode_position_tpdo(f);
@@ -160,7 +160,7 @@ void CanopenActuatorSet::on_statusword_tpdo(int i, const fw::CanFrame& f) noexce
 }
 
 bool CanopenActuatorSet::statusword_current(int i) const noexcept {
-  if (config_.rpdo_layout == fw::RpdoLayoutKind::kPerDrive) return true;  // in every TPDO1
+  if (config_.bus_layout != fw::BusLayout::kBroadcast) return true;  // in every TPDO1
   return statusword_seen_[i] && cycles_since_statusword_[i] <= statusword_bound_cycles_;
 }
 
@@ -178,7 +178,7 @@ void CanopenActuatorSet::dispatch(const fw::CanFrame& f, std::uint64_t now) noex
       return;
     case fw::Function::kTpdo3:
       // The statusword TPDO of the broadcast layout; another TPDO3 is not ours.
-      if (i < 0 || config_.rpdo_layout == fw::RpdoLayoutKind::kPerDrive) break;
+      if (i < 0 || config_.bus_layout != fw::BusLayout::kBroadcast) break;
       on_statusword_tpdo(i, f);
       return;
     case fw::Function::kTpdo2: {
@@ -354,7 +354,8 @@ IoStatus CanopenActuatorSet::write(const ActuatorCommand& command) noexcept {
   events_.transition_timeout |= write_events_.transition_timeout;
 
   // The cycle's frames, sent in one batch (one syscall on SocketCAN): the RPDOs (or the
-  // controlwords due and the broadcast torques), the SYNC, the heartbeat when due.
+  // controlwords due and the broadcast torques, or the one FD frame), the SYNC, the heartbeat
+  // when due.
   enum class Tx : std::uint8_t { kRpdo, kControlword, kBroadcast, kSync, kHeartbeat };
   struct Pending {
     Tx what;
@@ -372,12 +373,19 @@ IoStatus CanopenActuatorSet::write(const ActuatorCommand& command) noexcept {
     frames[count] = *f;
     pending[count++] = {what, drive};
   };
-  const bool per_drive = config_.rpdo_layout == fw::RpdoLayoutKind::kPerDrive;
+  const bool per_drive = config_.bus_layout == fw::BusLayout::kPerDrive;
+  const bool fd = config_.bus_layout == fw::BusLayout::kFd;
   if (per_drive) {
     for (int i = 0; i < n_; ++i)
       add(fw::encode_rpdo1(config_.drives[static_cast<std::size_t>(i)].node_id,
                            {sent_[i].controlword, torque[i]}),
           Tx::kRpdo, i);
+  } else if (fd) {
+    // One CAN FD frame with every drive's controlword + torque (firmware_if/pdo.hpp).
+    fw::FdCommands c;
+    c.drives = static_cast<std::uint8_t>(n_);
+    for (int i = 0; i < n_; ++i) c.command[i] = {sent_[i].controlword, torque[i]};
+    add(fw::encode_fd_commands(c), Tx::kBroadcast, 0);
   } else {
     for (int i = 0; i < n_; ++i) {
       // On change, at most once per can.controlword_inhibit (a change waits it out, the
@@ -458,7 +466,9 @@ IoStatus CanopenActuatorSet::write(const ActuatorCommand& command) noexcept {
         break;
     }
   }
-  if (!per_drive)
+  if (fd)  // the one frame carries every controlword and torque
+    for (int i = 0; i < n_; ++i) sent_[i].sent = broadcast_sent;
+  else if (!per_drive)
     for (int i = 0; i < n_; ++i) sent_[i].sent = broadcast_sent && controlword_ok_[i];
   for (int i = 0; i < n_; ++i)
     torque_applied_[i] =

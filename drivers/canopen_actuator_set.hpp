@@ -11,10 +11,12 @@
 //                      (0 unless Operation enabled), as RPDOs (per-drive: 200h+id with
 //                      controlword + torque; broadcast: 200h with every torque, plus the
 //                      controlword RPDO 200h+id when it changes or every
-//                      can.controlword_refresh), THEN the SYNC (080h), then the master's
+//                      can.controlword_refresh; fd: one CAN FD frame on 200h with every
+//                      controlword + torque), THEN the SYNC (080h), then the master's
 //                      heartbeat when due.
 //   drives:            apply the RPDO data at SYNC k, sample, answer TPDO1 (transmission
-//                      type 1); broadcast: TPDO1 = position only, and TPDO3 = statusword
+//                      type 1; fd: as an FD frame); broadcast: TPDO1 = position only, and
+//                      TPDO3 = statusword
 //                      when it changed (at most once per can.statusword_inhibit, at least
 //                      once per can.statusword_refresh).
 //   cycle k+1: read()  gets them.
@@ -198,7 +200,7 @@ class CanopenActuatorSet final : public ActuatorSet {
   void on_tpdo(int i, const fw::CanFrame& f) noexcept;
   void on_statusword_tpdo(int i, const fw::CanFrame& f) noexcept;
   // Broadcast layout: a statusword came within statusword_bound_cycles_ (always true
-  // per-drive, where every TPDO1 carries it).
+  // per_drive and fd, where every TPDO1 carries it).
   bool statusword_current(int i) const noexcept;
   void lose(int i) noexcept;
   void latch_bus_off() noexcept;

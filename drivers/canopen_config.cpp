@@ -69,8 +69,16 @@ void check(const CanConfig& c, std::vector<std::string>& p) {
     add(fmt::format("can.bitrate: must be in [10000, 1000000] bit/s (got {})", c.bitrate));
   if (!(c.max_bus_load > 0.0 && c.max_bus_load <= 1.0))
     add(fmt::format("can.max_bus_load: must be in (0, 1] (got {})", c.max_bus_load));
-  if (c.rpdo_layout == fw::RpdoLayoutKind::kBroadcast && c.drives.size() > fw::kBroadcastMaxDrives)
-    add(fmt::format("can.rpdo_layout: broadcast carries at most {} drives in one frame (got {})",
+  // CAN FD data phase: at least the nominal rate, at most 8 Mbit/s (the fastest CAN FD
+  // transceivers, ISO 11898-2:2016 with CiA 601-4 signal improvement).
+  if (c.data_bitrate < c.bitrate || c.data_bitrate > 8'000'000)
+    add(fmt::format("can.fd.data_bitrate: must be in [can.bitrate = {}, 8000000] bit/s (got {})",
+                    c.bitrate, c.data_bitrate));
+  if (c.bus_layout == fw::BusLayout::kFd && c.drives.size() > fw::kFdMaxDrives)
+    add(fmt::format("can.bus_layout: fd carries at most {} drives in one FD RPDO (got {})",
+                    fw::kFdMaxDrives, c.drives.size()));
+  if (c.bus_layout == fw::BusLayout::kBroadcast && c.drives.size() > fw::kBroadcastMaxDrives)
+    add(fmt::format("can.bus_layout: broadcast carries at most {} drives in one frame (got {})",
                     fw::kBroadcastMaxDrives, c.drives.size()));
   if (!(c.max_cyclic_load > 0.0 && c.max_cyclic_load <= c.max_bus_load))
     add(fmt::format("can.max_cyclic_load: must be in (0, can.max_bus_load = {}] (got {})",
@@ -95,7 +103,7 @@ void check(const CanConfig& c, std::vector<std::string>& p) {
         fmt::format("can.statusword_refresh: must be whole milliseconds in [can.statusword_inhibit "
                     "= {} s, 65.535] s (got {} s)",
                     to_s(c.statusword_inhibit_ns), to_s(c.statusword_refresh_ns)));
-  if (c.rpdo_layout == fw::RpdoLayoutKind::kBroadcast &&
+  if (c.bus_layout == fw::BusLayout::kBroadcast &&
       c.transition_timeout_ns <=
           c.controlword_inhibit_ns + c.statusword_inhibit_ns + 2 * c.sync_period_ns)
     add(fmt::format(
@@ -223,13 +231,34 @@ CanConfig load_can_config(const YAML::Node& can_node, double safety_torque_max) 
   const double bitrate = r.number("bitrate", c.bitrate);
   c.bitrate = bitrate > 0 && bitrate < 4e9 ? static_cast<std::uint32_t>(bitrate) : 0;
   c.max_bus_load = r.number("max_bus_load", c.max_bus_load);
-  const std::string layout = r.string("rpdo_layout", "per_drive");
-  if (layout == "per_drive")
-    c.rpdo_layout = fw::RpdoLayoutKind::kPerDrive;
-  else if (layout == "broadcast")
-    c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
-  else
-    r.problem(fmt::format("can.rpdo_layout: must be per_drive or broadcast (got '{}')", layout));
+  if (r.has("rpdo_layout")) {
+    // Renamed (issue 15): the key selects the TPDOs too.
+    r.problem(
+        "can.rpdo_layout: renamed can.bus_layout (per_drive | broadcast | fd: it selects the "
+        "TPDOs and the frame format too); rename the key");
+    (void)r.string("rpdo_layout");  // read, so not reported as unknown as well
+  }
+  const std::string layout = r.string("bus_layout", "per_drive");
+  bool known_layout = false;
+  for (fw::BusLayout l : fw::kBusLayouts)
+    if (layout == fw::to_string(l)) {
+      c.bus_layout = l;
+      known_layout = true;
+    }
+  if (!known_layout)
+    r.problem(fmt::format("can.bus_layout: must be per_drive, broadcast or fd (got '{}')", layout));
+  {
+    YamlReader f = r.child("fd", false);
+    if (f.has("nominal_bitrate")) {  // one owner: can.bitrate
+      f.problem(
+          "can.fd.nominal_bitrate: the nominal (arbitration-phase) rate is can.bitrate, for "
+          "classic and CAN FD frames alike; remove this key");
+      (void)f.number("nominal_bitrate");
+    }
+    const double data = f.number("data_bitrate", c.data_bitrate);
+    c.data_bitrate = data > 0 && data < 4e9 ? static_cast<std::uint32_t>(data) : 0;
+    f.reject_unknown_keys();
+  }
   c.max_cyclic_load = r.number("max_cyclic_load", c.max_cyclic_load);
   c.controlword_refresh_ns = to_ns(r.number("controlword_refresh", to_s(c.controlword_refresh_ns)));
   c.controlword_inhibit_ns = to_ns(r.number("controlword_inhibit", to_s(c.controlword_inhibit_ns)));
@@ -374,6 +403,7 @@ fw::BusParams bus_params(const CanConfig& c) noexcept {
   fw::BusParams p;
   p.drives = static_cast<std::uint8_t>(c.drives.size());
   p.nominal_bitrate = c.bitrate;
+  p.data_bitrate = c.data_bitrate;
   p.sync_bytes = c.sync_bytes();
   p.statusword_inhibit_s = to_s(c.statusword_inhibit_ns);
   p.controlword_inhibit_s = to_s(c.controlword_inhibit_ns);
@@ -383,8 +413,7 @@ fw::BusParams bus_params(const CanConfig& c) noexcept {
 }
 
 fw::LayoutLoad bus_load_report(const CanConfig& config) noexcept {
-  return fw::layout_load(fw::bus_layout_of(config.rpdo_layout), bus_params(config),
-                         config.cycle_hz());
+  return fw::layout_load(config.bus_layout, bus_params(config), config.cycle_hz());
 }
 
 std::string format_bus_load(const CanConfig& config, const fw::LayoutLoad& r) {
@@ -393,25 +422,40 @@ std::string format_bus_load(const CanConfig& config, const fw::LayoutLoad& r) {
       "{} bit/s: {:.1f} % cyclic (limit {:.1f} %), {:.1f} % with event PDOs at their inhibit "
       "times (limit {:.1f} %); max rate {:.1f} Hz{}",
       config.drives.size(), fw::to_string(r.layout), config.sync_bytes(), r.cyclic_bits.total(),
-      config.cycle_hz(), config.bitrate, 100.0 * r.cyclic_load, 100.0 * config.max_cyclic_load,
-      100.0 * r.total_load, 100.0 * config.max_bus_load, r.max_rate_hz,
-      r.fits ? "" : " -- DOES NOT FIT");
+      config.cycle_hz(),
+      config.bus_layout == fw::BusLayout::kFd
+          ? fmt::format("{} / {} (data phase)", config.bitrate, config.data_bitrate)
+          : fmt::format("{}", config.bitrate),
+      100.0 * r.cyclic_load, 100.0 * config.max_cyclic_load, 100.0 * r.total_load,
+      100.0 * config.max_bus_load, r.max_rate_hz, r.fits ? "" : " -- DOES NOT FIT");
 }
 
 fw::LayoutLoad require_bus_load_fits(const CanConfig& config) {
   const fw::LayoutLoad r = bus_load_report(config);
   if (!r.fits) {
-    const double needed = static_cast<double>(r.cyclic_bits.total()) * config.cycle_hz();
+    // Classic: bits x rate against the bit rate; CAN FD: bus time, the arbitration phase at
+    // can.bitrate and the data phase at can.fd.data_bitrate.
+    const std::string demand =
+        config.bus_layout == fw::BusLayout::kFd
+            ? fmt::format(
+                  "{:.1f} us of bus time a cycle worst case ({} bits at {} bit/s + {} "
+                  "data-phase bits at can.fd.data_bitrate {} bit/s)",
+                  1e6 * r.cycle_time_s, r.cyclic_bits.nominal, config.bitrate, r.cyclic_bits.data,
+                  config.data_bitrate)
+            : fmt::format("{:.0f} bit/s worst case ({} bits/cycle) on a {} bit/s bus",
+                          static_cast<double>(r.cyclic_bits.total()) * config.cycle_hz(),
+                          r.cyclic_bits.total(), config.bitrate);
     throw ConfigError({fmt::format(
-        "can.sync.period: {:.1f} Hz with the {} layout needs {:.0f} bit/s worst case ({} "
-        "bits/cycle) on a {} bit/s bus: {:.1f} % cyclic (can.max_cyclic_load {:.1f} %), {:.1f} % "
-        "with event PDOs at their inhibit times (can.max_bus_load {:.1f} %); lower the rate to at "
-        "most {:.1f} Hz{} (dualv bus-load compares the layouts)",
-        config.cycle_hz(), fw::to_string(r.layout), needed, r.cyclic_bits.total(), config.bitrate,
-        100.0 * r.cyclic_load, 100.0 * config.max_cyclic_load, 100.0 * r.total_load,
-        100.0 * config.max_bus_load, r.max_rate_hz,
-        config.rpdo_layout == fw::RpdoLayoutKind::kPerDrive ? " or use can.rpdo_layout: broadcast"
-                                                            : "")});
+        "can.sync.period: {:.1f} Hz with the {} layout needs {}: {:.1f} % cyclic "
+        "(can.max_cyclic_load {:.1f} %), {:.1f} % with event PDOs at their inhibit times "
+        "(can.max_bus_load {:.1f} %); lower the rate to at most {:.1f} Hz{} (dualv bus-load "
+        "compares the layouts)",
+        config.cycle_hz(), fw::to_string(r.layout), demand, 100.0 * r.cyclic_load,
+        100.0 * config.max_cyclic_load, 100.0 * r.total_load, 100.0 * config.max_bus_load,
+        r.max_rate_hz,
+        config.bus_layout == fw::BusLayout::kPerDrive    ? " or use can.bus_layout: broadcast or fd"
+        : config.bus_layout == fw::BusLayout::kBroadcast ? " or use can.bus_layout: fd"
+                                                         : "")});
   }
   return r;
 }

@@ -68,7 +68,9 @@ std::string format_bus_load(const CanConfig& config, const fw::LayoutLoad& repor
 // Throws ConfigError with the numbers when the worst case exceeds can.max_cyclic_load or
 // can.max_bus_load, e.g. "can.sync.period: 2000.0 Hz with the per_drive layout needs 1790000
 // bit/s worst case (895 bits/cycle) on a 1000000 bit/s bus: 179.0 % cyclic (...); lower the
-// rate to at most 1005.6 Hz or use can.rpdo_layout: broadcast (...)"
+// rate to at most 1005.6 Hz or use can.bus_layout: broadcast or fd (...)"; for the fd layout
+// the demand is bus time: the arbitration phase at can.bitrate, the data phase at
+// can.fd.data_bitrate.
 fw::LayoutLoad require_bus_load_fits(const CanConfig& config);
 
 }  // namespace dualv::drivers

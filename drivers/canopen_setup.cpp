@@ -60,6 +60,7 @@ std::unique_ptr<CanopenDrives> open_canopen_drives(const CanConfig& config,
   (void)require_bus_load_fits(c);
   SocketCanConfig sc;
   sc.interface = c.interface;
+  sc.fd_frames = c.bus_layout == fw::BusLayout::kFd;  // refused on an interface without FD
   auto bus = std::make_unique<SocketCanBus>(sc);
   auto clock = std::make_unique<canopen::SteadyClock>();
   canopen::SocketCanWaiter waiter(*bus, *clock);

@@ -22,26 +22,6 @@
 
 namespace dualv::fw {
 
-enum class BusLayout : std::uint8_t { kPerDrive, kBroadcast, kFd };
-inline constexpr std::array<BusLayout, 3> kBusLayouts{BusLayout::kPerDrive, BusLayout::kBroadcast,
-                                                      BusLayout::kFd};
-constexpr const char* to_string(BusLayout l) noexcept {
-  switch (l) {
-    case BusLayout::kPerDrive:
-      return "per_drive";
-    case BusLayout::kBroadcast:
-      return "broadcast";
-    case BusLayout::kFd:
-      return "can_fd";
-  }
-  return "?";
-}
-
-// The layout the master boots for a `can.rpdo_layout` (CAN FD is not bootable yet).
-constexpr BusLayout bus_layout_of(RpdoLayoutKind k) noexcept {
-  return k == RpdoLayoutKind::kBroadcast ? BusLayout::kBroadcast : BusLayout::kPerDrive;
-}
-
 struct BusParams {
   std::uint8_t drives = 4;
   std::uint32_t nominal_bitrate = 1'000'000;  // [bit/s] classic frames, FD arbitration phase
@@ -103,7 +83,8 @@ constexpr LayoutTraffic layout_traffic(BusLayout layout, const BusParams& p) noe
       break;
     }
     case BusLayout::kFd: {
-      // 16 drives x 4 B per 64-byte frame.
+      // 16 drives x 4 B per 64-byte frame (the master boots up to kFdMaxDrives in one frame:
+      // firmware_if/pdo.hpp fd_rpdo_layout).
       const std::uint8_t frames = frames_for(p.drives, 16);
       if (frames > 1)
         t.add({"FD RPDO controlwords + torques", static_cast<std::uint8_t>(frames - 1), 64,
@@ -113,7 +94,8 @@ constexpr LayoutTraffic layout_traffic(BusLayout layout, const BusParams& p) noe
             fd_frame_bytes(static_cast<std::uint8_t>(4 * (p.drives - 16 * (frames - 1))));
         t.add({"FD RPDO controlwords + torques", 1, bytes, fd_frame_bits(bytes), 0});
       }
-      t.add({"FD TPDO statusword + position", p.drives, 6, fd_frame_bits(6), 0});
+      t.add({"FD TPDO statusword + position", p.drives, kTpdo1Layout.bytes(),
+             fd_frame_bits(kTpdo1Layout.bytes()), 0});
       break;
     }
   }

@@ -74,10 +74,11 @@ struct CanDriveConfig {
 
 struct CanConfig {
   std::string interface = "vcan0";
-  std::uint32_t bitrate = 1'000'000;  // [bit/s]
-  double max_bus_load = 0.95;         // worst-case fraction accepted, event PDOs at their bound
-  double max_cyclic_load = 0.90;      // ... for the cyclic frames alone (issue 15)
-  RpdoLayoutKind rpdo_layout = RpdoLayoutKind::kPerDrive;
+  std::uint32_t bitrate = 1'000'000;       // [bit/s] nominal: classic frames, FD arbitration phase
+  std::uint32_t data_bitrate = 5'000'000;  // [bit/s] can.fd.data_bitrate: FD data phase (BRS)
+  double max_bus_load = 0.95;     // worst-case fraction accepted, event PDOs at their bound
+  double max_cyclic_load = 0.90;  // ... for the cyclic frames alone (issue 15)
+  BusLayout bus_layout = BusLayout::kPerDrive;  // can.bus_layout (firmware_if/pdo.hpp)
   // Broadcast layout only (firmware_if/pdo.hpp): the host sends a drive's controlword RPDO
   // when it changes, at most once per controlword_inhibit and at least once per
   // controlword_refresh; the drive sends its statusword TPDO3 on change, at most once per

@@ -1,7 +1,7 @@
 #pragma once
 // Bits on the wire of one CAN data frame, classic CAN and CAN FD, without stuffing and in the
-// worst case of bit stuffing (docs/architecture.md "Beating the naive bus limit"). The frame fields are
-// those of ISO 11898-1:2015 (clause 10.4, frame formats; clause 10.5, frame coding); the FD
+// worst case of bit stuffing (docs/architecture.md "Beating the naive bus limit"). The frame fields
+// are those of ISO 11898-1:2015 (clause 10.4, frame formats; clause 10.5, frame coding); the FD
 // frame is that of the Bosch "CAN with Flexible Data-Rate" specification 1.0 (2012) with the
 // ISO additions (stuff count, CRC over the dynamic stuff bits).
 //
@@ -35,6 +35,8 @@
 #include <array>
 #include <cstdint>
 
+#include "firmware_if/can_frame.hpp"
+
 namespace dualv::fw {
 
 enum class Stuffing : std::uint8_t {
@@ -63,7 +65,6 @@ constexpr std::uint32_t worst_case_stuff_bits(std::uint32_t stuffed_bits) noexce
 }
 
 // ---- classic CAN -------------------------------------------------------------------------
-inline constexpr std::uint8_t kClassicMaxBytes = 8;
 inline constexpr std::uint32_t kFrameTailBits = 13;  // CRC delim, ACK, ACK delim, EOF 7, IFS 3
 
 constexpr FrameBits classic_frame_bits(std::uint8_t data_bytes,
@@ -82,25 +83,11 @@ constexpr FrameBits classic_extended_frame_bits(std::uint8_t data_bytes,
 }
 
 // ---- CAN FD -------------------------------------------------------------------------------
-// Payload sizes of the 16 DLC codes (ISO 11898-1:2015, DLC 9..15 = 12..64 bytes).
-inline constexpr std::array<std::uint8_t, 16> kFdDlcBytes{0, 1,  2,  3,  4,  5,  6,  7,
-                                                          8, 12, 16, 20, 24, 32, 48, 64};
-inline constexpr std::uint8_t kFdMaxBytes = 64;
+// Frame sizes and DLC codes: firmware_if/can_frame.hpp (kFdDlcBytes, fd_frame_bytes,
+// fd_dlc_code).
 inline constexpr std::uint32_t kFdArbitrationBits = 17;      // SOF..BRS
 inline constexpr std::uint32_t kFdArbitrationStuffBits = 3;  // worst case before the switch
 
-// The frame size a payload of `bytes` needs (the smallest DLC size >= bytes; 64 at most).
-constexpr std::uint8_t fd_frame_bytes(std::uint8_t bytes) noexcept {
-  for (std::uint8_t size : kFdDlcBytes)
-    if (size >= bytes) return size;
-  return kFdMaxBytes;
-}
-// DLC code of a frame size (fd_frame_bytes() first for other sizes).
-constexpr std::uint8_t fd_dlc(std::uint8_t frame_bytes) noexcept {
-  for (std::uint8_t code = 0; code < kFdDlcBytes.size(); ++code)
-    if (kFdDlcBytes[code] >= frame_bytes) return code;
-  return 15;
-}
 constexpr std::uint32_t fd_crc_bits(std::uint8_t frame_bytes) noexcept {
   return frame_bytes <= 16 ? 17 : 21;
 }

@@ -4,16 +4,6 @@
 
 namespace dualv::fw {
 
-const char* to_string(RpdoLayoutKind k) noexcept {
-  switch (k) {
-    case RpdoLayoutKind::kPerDrive:
-      return "per-drive RPDO (controlword + target torque)";
-    case RpdoLayoutKind::kBroadcast:
-      return "broadcast RPDO (all target torques in one frame)";
-  }
-  return "?";
-}
-
 namespace {
 
 Result<CanFrame> pdo_frame(Function f, std::uint8_t node, std::uint8_t dlc) noexcept {
@@ -113,6 +103,56 @@ Result<std::int16_t> decode_broadcast_torque(const CanFrame& frame, std::uint8_t
   if (slot >= kBroadcastMaxDrives) return Error::kBadValue;
   if (frame.dlc > 8 || frame.dlc < 2u * (slot + 1u)) return Error::kWrongDlc;
   return as_i16(get_u16_le(&frame.data[2u * slot]));
+}
+
+// The FD RPDO's byte offsets come from the mapping of slot 0 (then 4 bytes per slot).
+constexpr int kFdCwAt = fd_rpdo_layout(0, 1).offset_of(od::kControlword);
+constexpr int kFdTorqueAt = fd_rpdo_layout(0, 1).offset_of(od::kTargetTorque);
+constexpr int kFdSlotBytes = fd_rpdo_layout(0, 1).bytes();
+static_assert(kFdCwAt == 0 && kFdTorqueAt == 2 && kFdSlotBytes == 4);
+static_assert(fd_rpdo_layout(3, 4).offset_of(od::kControlword) == 3 * kFdSlotBytes);
+
+Result<CanFrame> encode_fd_commands(const FdCommands& c) noexcept {
+  if (c.drives < 1 || c.drives > kFdMaxDrives) return Error::kBadValue;
+  CanFrame f = data_frame(kBroadcastRpdoCobId, fd_rpdo_bytes(c.drives), true);
+  for (std::uint8_t i = 0; i < c.drives; ++i) {
+    put_u16_le(&f.data[kFdSlotBytes * i + kFdCwAt], c.command[i].controlword);
+    put_u16_le(&f.data[kFdSlotBytes * i + kFdTorqueAt],
+               static_cast<std::uint16_t>(c.command[i].target_torque));
+  }
+  return f;
+}
+
+Result<DriveCommand> decode_fd_command(const CanFrame& frame, std::uint8_t slot) noexcept {
+  const Result<std::uint8_t> node = expect_function(frame, Function::kBroadcastRpdo);
+  if (!node) return node.error();
+  if (slot >= kFdMaxDrives) return Error::kBadValue;
+  if (!frame.fd || frame.dlc > kFdMaxBytes || frame.dlc < kFdSlotBytes * (slot + 1u))
+    return Error::kWrongDlc;
+  const std::size_t at = kFdSlotBytes * slot;
+  return DriveCommand{get_u16_le(&frame.data[at + kFdCwAt]),
+                      as_i16(get_u16_le(&frame.data[at + kFdTorqueAt]))};
+}
+
+Result<FdCommands> decode_fd_commands(const CanFrame& frame, std::uint8_t drives) noexcept {
+  if (drives < 1 || drives > kFdMaxDrives) return Error::kBadValue;
+  FdCommands c;
+  c.drives = drives;
+  for (std::uint8_t i = 0; i < drives; ++i) {
+    const Result<DriveCommand> one = decode_fd_command(frame, i);
+    if (!one) return one.error();
+    c.command[i] = *one;
+  }
+  return c;
+}
+
+Result<CanFrame> encode_fd_tpdo1(std::uint8_t node, const DriveFeedback& fb) noexcept {
+  Result<CanFrame> r = encode_tpdo1(node, fb);
+  if (!r) return r;
+  CanFrame f = *r;
+  f.fd = true;
+  f.brs = true;
+  return f;
 }
 
 Result<CanFrame> encode_controlword_rpdo(std::uint8_t node, std::uint16_t controlword) noexcept {

@@ -3,7 +3,8 @@
 // (docs/architecture.md): per-drive RPDO1 = controlword + target torque, TPDO1 = statusword +
 // position actual; or one broadcast RPDO carrying every drive's target torque ("Beating the naive
 // bus limit", issue 15), the cyclic TPDO1 with the position alone, and the controlword (RPDO1) and
-// the statusword (TPDO3) as event-driven PDOs bounded by their inhibit times.
+// the statusword (TPDO3) as event-driven PDOs bounded by their inhibit times; or CAN FD: one FD
+// RPDO with every drive's controlword + torque and TPDO1 (statusword + position) as FD frames.
 #include <array>
 #include <cstdint>
 
@@ -82,13 +83,31 @@ inline constexpr std::uint8_t kTransmissionEventManufacturer = 0xFE;
 inline constexpr std::uint8_t kTransmissionEventProfile = 0xFF;  // asynchronous, on change
 
 // ---- the contract's layouts ----------------------------------------------------------
-enum class RpdoLayoutKind : std::uint8_t {
-  kPerDrive,   // RPDO1 0x200+id: controlword u16 + target torque i16, every SYNC
+// The layout of the cyclic traffic, `can.bus_layout` (docs/architecture.md "CAN contract"):
+enum class BusLayout : std::uint8_t {
+  kPerDrive,   // RPDO1 0x200+id: controlword u16 + target torque i16, TPDO1 0x180+id:
+               // statusword + position, every SYNC
   kBroadcast,  // one frame on kBroadcastRpdoCobId with all target torques (i16 each),
                // every SYNC; per drive RPDO1 0x200+id = controlword (on change), TPDO1
                // 0x180+id = position (every SYNC), TPDO3 0x380+id = statusword (on change)
+  kFd,         // CAN FD: one FD frame on kBroadcastRpdoCobId with every drive's controlword +
+               // target torque (4 B each), TPDO1 0x180+id = statusword + position as an FD
+               // frame, every SYNC
 };
-const char* to_string(RpdoLayoutKind k) noexcept;
+inline constexpr std::array<BusLayout, 3> kBusLayouts{BusLayout::kPerDrive, BusLayout::kBroadcast,
+                                                      BusLayout::kFd};
+// The value of `can.bus_layout`: per_drive, broadcast, fd.
+constexpr const char* to_string(BusLayout l) noexcept {
+  switch (l) {
+    case BusLayout::kPerDrive:
+      return "per_drive";
+    case BusLayout::kBroadcast:
+      return "broadcast";
+    case BusLayout::kFd:
+      return "fd";
+  }
+  return "?";
+}
 
 inline constexpr PdoLayout kRpdo1Layout{{map_entry(od::kControlword), map_entry(od::kTargetTorque)},
                                         2};
@@ -117,11 +136,34 @@ constexpr PdoLayout broadcast_rpdo_layout(std::uint8_t slot, std::uint8_t drives
   return l;
 }
 
+// CAN FD mode: RPDO2 on kBroadcastRpdoCobId, an FD frame; the drive in `slot` maps its own
+// controlword + target torque at bytes 4*slot..4*slot+3 and UNSIGNED16 + INTEGER16 dummies
+// (0006h, 0003h) for the others' (CiA 301 7.4.7.1; CiA 1301 for PDOs beyond 8 bytes). Two
+// entries per drive in the 8 a mapping holds here (od::kPdoMaxMappedObjects): 4 drives, 16
+// bytes. TPDO1 keeps kTpdo1Layout (6 bytes), sent as an FD frame. Slot out of range gives an
+// all-dummy layout (count 0 when drives is out of 1..4).
+inline constexpr std::uint8_t kFdRpdoNumber = kBroadcastRpdoNumber;
+inline constexpr std::uint8_t kFdMaxDrives = od::kPdoMaxMappedObjects / 2;
+constexpr PdoLayout fd_rpdo_layout(std::uint8_t slot, std::uint8_t drives) noexcept {
+  PdoLayout l;
+  if (drives < 1 || drives > kFdMaxDrives) return l;
+  for (std::uint8_t i = 0; i < drives; ++i) {
+    const bool own = i == slot;
+    l.entries[2u * i] = own ? map_entry(od::kControlword) : dummy_entry(DataType::kUnsigned16);
+    l.entries[2u * i + 1u] = own ? map_entry(od::kTargetTorque) : dummy_entry(DataType::kInteger16);
+  }
+  l.count = static_cast<std::uint8_t>(2 * drives);
+  return l;
+}
+
 // Cyclic payload sizes in bytes, for the bus-load calculation.
 constexpr std::uint8_t rpdo_bytes_per_drive() noexcept { return kRpdo1Layout.bytes(); }
 constexpr std::uint8_t tpdo_bytes_per_drive() noexcept { return kTpdo1Layout.bytes(); }
 constexpr std::uint8_t broadcast_rpdo_bytes(std::uint8_t drives) noexcept {
   return broadcast_rpdo_layout(0, drives).bytes();
+}
+constexpr std::uint8_t fd_rpdo_bytes(std::uint8_t drives) noexcept {
+  return fd_rpdo_layout(0, drives).bytes();
 }
 
 // ---- codecs -----------------------------------------------------------------------------
@@ -134,6 +176,11 @@ struct DriveFeedback {  // TPDO1, drive -> host
   std::uint16_t statusword = 0;
   std::int32_t position = 0;  // encoder counts (6064h)
   friend constexpr bool operator==(const DriveFeedback&, const DriveFeedback&) = default;
+};
+struct FdCommands {                                  // the CAN FD RPDO, host -> every drive
+  std::array<DriveCommand, kFdMaxDrives> command{};  // by slot
+  std::uint8_t drives = 0;
+  friend constexpr bool operator==(const FdCommands&, const FdCommands&) = default;
 };
 struct BroadcastTorques {
   std::array<std::int16_t, kBroadcastMaxDrives> torque{};  // per mille, by slot
@@ -156,6 +203,14 @@ Result<BroadcastTorques> decode_broadcast_torques(const CanFrame& frame) noexcep
 // What a drive in `slot` takes from the frame (its own two bytes); kWrongDlc when the
 // frame is too short to hold the slot.
 Result<std::int16_t> decode_broadcast_torque(const CanFrame& frame, std::uint8_t slot) noexcept;
+// CAN FD mode. drives 1..4 (kBadValue otherwise); an FD frame with BRS, DLC = the FD size
+// of 4 * drives bytes (fw::fd_frame_bytes). Decoders: kWrongDlc for a classic frame or one
+// too short for the drives (or the slot).
+Result<CanFrame> encode_fd_commands(const FdCommands& c) noexcept;
+Result<FdCommands> decode_fd_commands(const CanFrame& frame, std::uint8_t drives) noexcept;
+Result<DriveCommand> decode_fd_command(const CanFrame& frame, std::uint8_t slot) noexcept;
+// TPDO1 of the CAN FD mode: kTpdo1Layout in an FD frame with BRS (decode_tpdo1 reads it).
+Result<CanFrame> encode_fd_tpdo1(std::uint8_t node, const DriveFeedback& f) noexcept;
 Result<CanFrame> encode_controlword_rpdo(std::uint8_t node, std::uint16_t controlword) noexcept;
 Result<std::uint16_t> decode_controlword_rpdo(const CanFrame& frame) noexcept;
 // TPDO1 of the broadcast mode (position, 4 B) and its TPDO3 (statusword, 2 B).

@@ -90,7 +90,7 @@ struct Stack {
     fw::CanFrame f;
     while (rig.monitor_bus().receive(f) == drivers::BusStatus::kOk) {
       if (f.extended || f.rtr) continue;
-      if (f.id == fw::kBroadcastRpdoCobId && can().rpdo_layout == fw::RpdoLayoutKind::kBroadcast) {
+      if (f.id == fw::kBroadcastRpdoCobId && can().bus_layout == fw::BusLayout::kBroadcast) {
         const auto b = fw::decode_broadcast_torques(f);
         FUZZ_CHECK(b.ok());
         for (int i = 0; i < b->drives; ++i) observe(i, b->torque[static_cast<std::size_t>(i)]);
@@ -99,7 +99,7 @@ struct Stack {
       if (f.id <= fw::kRpdo1Base || f.id > fw::kRpdo1Base + fw::kMaxNodeId) continue;
       const int drive = can().drive_of_node(static_cast<std::uint8_t>(f.id - fw::kRpdo1Base));
       if (drive < 0) continue;
-      if (can().rpdo_layout == fw::RpdoLayoutKind::kPerDrive) {
+      if (can().bus_layout == fw::BusLayout::kPerDrive) {
         const auto c = fw::decode_rpdo1(f);
         FUZZ_CHECK(c.ok());  // the master's RPDO1 is always the contract's layout
         observe(drive, c->target_torque);

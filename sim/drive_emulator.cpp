@@ -50,6 +50,9 @@ constexpr std::uint8_t error_register_for(std::uint16_t code) noexcept {
   return r;
 }
 
+// A PDO's payload: up to 64 bytes (a CAN FD frame; 8 on a classic drive).
+using PdoData = std::array<std::uint8_t, fw::kFdMaxBytes>;
+
 struct MapRef {
   int slot = -1;  // -1: dummy entry (RPDO only)
   std::uint8_t bytes = 0;
@@ -67,10 +70,10 @@ struct Pdo {
   std::uint8_t bytes = 0;
   bool maps_torque = false;
   // Run time.
-  std::array<std::uint8_t, 8> staged{};  // synchronous RPDO waiting for the next SYNC
+  PdoData staged{};  // synchronous RPDO waiting for the next SYNC
   bool pending = false;
-  std::uint8_t sync_count = 0;         // TPDO types 1..240
-  std::array<std::uint8_t, 8> last{};  // TPDO types 0/254/255: last sent
+  std::uint8_t sync_count = 0;  // TPDO types 1..240
+  PdoData last{};               // TPDO types 0/254/255: last sent
   bool sent_once = false;
   std::uint64_t next_event_ns = 0;  // TPDO event timer
   std::uint64_t last_tx_ns = 0;     // TPDO: last transmission (inhibit time)
@@ -170,6 +173,7 @@ DriveEmulatorConfig emulator_config_from(const fw::CanConfig& can) {
     c.drives.push_back(e);
   }
   c.sync_period_ns = can.sync_period_ns;
+  c.fd = can.bus_layout == fw::BusLayout::kFd;
   c.abort_connection = can.abort_connection;
   c.quick_stop = can.quick_stop;
   c.fault_reaction = can.fault_reaction;
@@ -219,6 +223,7 @@ struct DriveEmulator::Drive {
   std::array<int, kEmulatedConsumerHeartbeats> s_hb_cons{};
 
   bool refuse_dummies = false;  // DriveEmulatorConfig::refuse_dummy_mapping
+  bool fd = false;              // DriveEmulatorConfig::fd
   std::array<Pdo, kEmulatedPdos> rpdo{};
   std::array<Pdo, kEmulatedPdos> tpdo{};
 
@@ -275,6 +280,7 @@ struct DriveEmulator::Drive {
     index = joint;
     dict.set_absent(c.absent_objects);
     refuse_dummies = c.refuse_dummy_mapping;
+    fd = c.fd;
     sdo_server.configure(c.drives[static_cast<std::size_t>(joint)].node_id,
                          {c.segmented_upload, c.upload_without_size});
     cfg = c.drives[static_cast<std::size_t>(joint)];
@@ -396,7 +402,9 @@ struct DriveEmulator::Drive {
       }
       bits += e.bits;
     }
-    if (bits > 64) return abort_value(SdoAbortCode::kMappingTooLong);
+    // A classic PDO ends at 8 bytes; a CAN FD drive's at 64 (CiA 1301).
+    if (bits > 8u * (fd ? fw::kFdMaxBytes : fw::kClassicMaxBytes))
+      return abort_value(SdoAbortCode::kMappingTooLong);
     return kNoAbort;
   }
 
@@ -794,6 +802,7 @@ struct DriveEmulator::Drive {
     bool mine = false;
     for (Pdo& p : rpdo) {
       if (!p.valid || p.count == 0 || p.cob != frame.id) continue;
+      if (frame.fd && !fd) continue;  // a classic drive cannot receive an FD frame
       mine = true;
       if (nmt != EmulatedNmt::kOperational) continue;  // PDOs only in Operational
       if (frame.dlc < p.bytes) {
@@ -832,8 +841,7 @@ struct DriveEmulator::Drive {
   static bool inhibit_over(const Pdo& p, std::uint64_t now) noexcept {
     return !p.sent_once || p.inhibit_ns == 0 || now - p.last_tx_ns >= p.inhibit_ns;
   }
-  void send_tpdo(DriveEmulator& emu, Pdo& p, const std::array<std::uint8_t, 8>& data,
-                 std::uint64_t now) noexcept {
+  void send_tpdo(DriveEmulator& emu, Pdo& p, const PdoData& data, std::uint64_t now) noexcept {
     p.last = data;
     p.sent_once = true;
     p.change_pending = false;
@@ -845,15 +853,14 @@ struct DriveEmulator::Drive {
       ++counters.tpdos_dropped;
       return;
     }
-    fw::CanFrame f;
-    f.id = p.cob;
-    f.dlc = p.bytes;
+    // On a CAN FD drive every TPDO is an FD frame with BRS (its size rounded up to a DLC size).
+    fw::CanFrame f = fw::data_frame(p.cob, p.bytes, fd);
     f.data = data;
     send(emu, f);
     ++counters.tpdos_sent;
   }
-  std::array<std::uint8_t, 8> tpdo_data(const Pdo& p) const noexcept {
-    std::array<std::uint8_t, 8> data{};
+  PdoData tpdo_data(const Pdo& p) const noexcept {
+    PdoData data{};
     std::size_t off = 0;
     for (std::uint8_t k = 0; k < p.count; ++k) {
       const MapRef& m = p.map[k];
@@ -877,7 +884,7 @@ struct DriveEmulator::Drive {
       if (real && !silent) {
         for (Pdo& p : tpdo) {
           if (!p.valid || p.count == 0) continue;
-          const std::array<std::uint8_t, 8> data = tpdo_data(p);
+          const PdoData data = tpdo_data(p);
           if (p.type >= 1 && p.type <= 240) {
             if (++p.sync_count >= p.type) {
               p.sync_count = 0;
@@ -983,7 +990,7 @@ struct DriveEmulator::Drive {
       const bool timer = p.event_ms != 0 && now >= p.next_event_ns;
       if (!(timer || p.change_pending) || !inhibit_over(p, now)) continue;
       refresh(emu);
-      const std::array<std::uint8_t, 8> data = tpdo_data(p);
+      const PdoData data = tpdo_data(p);
       if (timer || data != p.last) {
         send_tpdo(emu, p, data, now);
       } else {

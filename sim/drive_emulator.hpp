@@ -158,6 +158,11 @@ struct DriveEmulatorConfig {
   // A drive that cannot map CiA 301 dummy entries (0002h..0007h): the write of such a
   // mapping entry is aborted with 06040041h (`dualv sim --no-dummy-mapping`).
   bool refuse_dummy_mapping = false;
+  // A CAN FD drive (CiA 1301): PDOs up to 64 bytes, every TPDO sent as an FD frame with BRS,
+  // FD RPDOs received (the classic frames too). False: a classic drive, a mapping longer
+  // than 8 bytes aborted with 06040042h and FD frames ignored. emulator_config_from() sets it
+  // for can.bus_layout: fd; `dualv sim --no-fd` clears it.
+  bool fd = false;
   std::uint32_t vendor_id = 0x00000000;     // 1018h sub1 (none registered: a simulator)
   std::uint32_t product_code = 0x44564531;  // 1018h sub2, "DVE1"
 

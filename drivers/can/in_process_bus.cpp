@@ -16,6 +16,12 @@ BusStatus InProcessBus::send(const fw::CanFrame& frame) noexcept {
     ++counters_.tx_dropped;
     return BusStatus::kBusOff;
   }
+  if (!fw::is_valid(frame)) {
+    // What a controller refuses (SocketCAN: EINVAL): a classic frame above 8 bytes, an FD
+    // frame of a size no DLC code gives, an FD remote frame.
+    ++counters_.tx_dropped;
+    return BusStatus::kIoError;
+  }
   if (fail_sends_ > 0) {
     // ENOBUFS: the controller's queue is full, the frame never left.
     --fail_sends_;

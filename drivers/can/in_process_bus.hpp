@@ -19,7 +19,9 @@
 //                       frames still in flight (frames queued before the fault are never
 //                       delivered late)
 //   force_error_passive(on)  state() reports kErrorPassive; frames still pass
-// The order of checks in send() is: bus-off, fail_next_sends, then the frame is accepted
+// Frames carry CAN FD as sent (fd, brs, up to 64 bytes); a frame a controller would refuse
+// (fw::is_valid false) is refused with kIoError, counted as tx_dropped.
+// The order of checks in send() is: bus-off, validity, fail_next_sends, then the frame is accepted
 // (tx_frames) and drop, corrupt, delay apply in that order.
 #include <cstddef>
 #include <cstdint>

@@ -1,5 +1,7 @@
 #include "drivers/can/socketcan_bus.hpp"
 
+#include "drivers/can/kernel_frame.hpp"
+
 #include <fcntl.h>
 #include <linux/can.h>
 #include <linux/can/error.h>
@@ -98,6 +100,7 @@ SocketCanBus::SocketCanBus(const SocketCanConfig& config) : interface_(config.in
                         ifname + " up` (a real controller also needs `type can bitrate ...`)");
   }
 
+  const int on_fd = 1;
   if (!config.filters.empty()) {
     std::vector<can_filter> filters;
     filters.reserve(config.filters.size());
@@ -117,6 +120,22 @@ SocketCanBus::SocketCanBus(const SocketCanConfig& config) : interface_(config.in
     set_option(fd, SOL_CAN_RAW, CAN_RAW_FILTER, filters.data(),
                static_cast<socklen_t>(filters.size() * sizeof(can_filter)), ifname,
                "receive filters (CAN_RAW_FILTER)");
+  }
+  if (config.fd_frames) {
+    std::memset(&ifr, 0, sizeof(ifr));
+    std::memcpy(ifr.ifr_name, ifname.c_str(), ifname.size() + 1);
+    if (::ioctl(fd, SIOCGIFMTU, &ifr) == 0 && ifr.ifr_mtu != static_cast<int>(CANFD_MTU)) {
+      const int mtu = ifr.ifr_mtu;
+      ::close(fd);
+      throw CanSetupError("CAN interface '" + ifname + "' does not carry CAN FD frames (MTU " +
+                          std::to_string(mtu) + ", CAN FD needs " + std::to_string(CANFD_MTU) +
+                          ") but can.bus_layout is fd: for vcan run `ip link set " + ifname +
+                          " mtu 72`, for a controller `ip link set " + ifname +
+                          " up type can bitrate 1000000 dbitrate 5000000 fd on` (can.bitrate, "
+                          "can.fd.data_bitrate), or use can.bus_layout: per_drive or broadcast");
+    }
+    set_option(fd, SOL_CAN_RAW, CAN_RAW_FD_FRAMES, &on_fd, sizeof(on_fd), ifname,
+               "CAN FD frames (CAN_RAW_FD_FRAMES)");
   }
   const can_err_mask_t err_mask = CAN_ERR_MASK;
   set_option(fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof(err_mask), ifname,
@@ -143,6 +162,7 @@ SocketCanBus::SocketCanBus(const SocketCanConfig& config) : interface_(config.in
     throw CanSetupError("CAN interface '" + ifname + "': bind failed: " + errno_text(err));
   }
   fd_ = fd;
+  fd_frames_ = config.fd_frames;
   virtual_ = sysfs_says_virtual(ifname);
 }
 
@@ -153,17 +173,6 @@ SocketCanBus::~SocketCanBus() {
 }
 
 namespace {
-// The kernel's frame for one of ours; false when it cannot be one (more than 8 bytes).
-bool to_kernel_frame(const fw::CanFrame& frame, can_frame& cf) noexcept {
-  if (frame.dlc > CAN_MAX_DLEN) return false;
-  cf = can_frame{};
-  cf.can_id =
-      frame.extended ? ((frame.id & CAN_EFF_MASK) | CAN_EFF_FLAG) : (frame.id & CAN_SFF_MASK);
-  if (frame.rtr) cf.can_id |= CAN_RTR_FLAG;
-  cf.len = frame.dlc;
-  std::memcpy(cf.data, frame.data.data(), frame.dlc);
-  return true;
-}
 // Frames per sendmmsg/recvmmsg call: a cycle's frames (4 drives: SYNC, 4 RPDOs, a heartbeat;
 // 4 TPDOs back) fit in one.
 constexpr std::size_t kBatch = 16;
@@ -191,17 +200,18 @@ std::size_t SocketCanBus::send_many(std::span<const fw::CanFrame> frames,
   }
   std::size_t sent = 0;
   while (sent < frames.size()) {
-    std::array<can_frame, kBatch> cf{};
+    std::array<canfd_frame, kBatch> kf;
     std::array<iovec, kBatch> iov{};
     std::array<mmsghdr, kBatch> msgs{};
     std::size_t n = 0;
     for (; n < kBatch && sent + n < frames.size(); ++n) {
-      if (!to_kernel_frame(frames[sent + n], cf[n])) break;
-      iov[n] = iovec{&cf[n], sizeof(can_frame)};
+      const std::size_t size = to_kernel(frames[sent + n], fd_frames_, kf[n]);
+      if (size == 0) break;
+      iov[n] = iovec{&kf[n], size};
       msgs[n].msg_hdr.msg_iov = &iov[n];
       msgs[n].msg_hdr.msg_iovlen = 1;
     }
-    if (n == 0) {  // frames[sent] is not a classic frame
+    if (n == 0) {  // frames[sent] cannot be sent on this socket (invalid, or FD without FD)
       counters_.tx_dropped += frames.size() - sent;
       last_errno_ = EINVAL;
       status = BusStatus::kIoError;
@@ -223,7 +233,7 @@ std::size_t SocketCanBus::send_many(std::span<const fw::CanFrame> frames,
 }
 
 SocketCanBus::Read SocketCanBus::read_one(fw::CanFrame& frame) noexcept {
-  can_frame cf{};
+  canfd_frame cf{};
   iovec iov{&cf, sizeof(cf)};
   // Room for the timestamp and the drop counter; on the stack, nothing allocated.
   alignas(cmsghdr) unsigned char control[kControlBytes];
@@ -243,10 +253,10 @@ SocketCanBus::Read SocketCanBus::read_one(fw::CanFrame& frame) noexcept {
   return take(cf, msg, static_cast<std::size_t>(n), frame);
 }
 
-SocketCanBus::Read SocketCanBus::take(const can_frame& cf, msghdr& msg, std::size_t bytes,
+SocketCanBus::Read SocketCanBus::take(const canfd_frame& cf, msghdr& msg, std::size_t bytes,
                                       fw::CanFrame& frame) noexcept {
-  if (bytes != sizeof(cf)) {
-    last_errno_ = EPROTO;  // CAN FD frames are not enabled on this socket
+  if (bytes != CAN_MTU && bytes != CANFD_MTU) {
+    last_errno_ = EPROTO;  // neither a classic nor an FD frame
     return Read::kFailed;
   }
   std::uint64_t stamp = 0;
@@ -273,12 +283,7 @@ SocketCanBus::Read SocketCanBus::take(const can_frame& cf, msghdr& msg, std::siz
     on_error_frame(cf.can_id, data);
     return Read::kErrorFrame;
   }
-  frame.extended = (cf.can_id & CAN_EFF_FLAG) != 0;
-  frame.rtr = (cf.can_id & CAN_RTR_FLAG) != 0;
-  frame.id = cf.can_id & (frame.extended ? CAN_EFF_MASK : CAN_SFF_MASK);
-  frame.dlc = std::min<std::uint8_t>(cf.len, CAN_MAX_DLEN);
-  frame.data = {};
-  std::memcpy(frame.data.data(), cf.data, frame.dlc);
+  from_kernel(cf, static_cast<ssize_t>(bytes), frame);
   frame.timestamp_ns = stamp;
   return Read::kFrame;
 }
@@ -369,12 +374,12 @@ std::size_t SocketCanBus::receive_many(std::span<fw::CanFrame> frames,
       return got;
     }
     const std::size_t want = std::min(kBatch, frames.size() - got);
-    std::array<can_frame, kBatch> cf{};
+    std::array<canfd_frame, kBatch> cf;
     std::array<iovec, kBatch> iov{};
     std::array<mmsghdr, kBatch> msgs{};
     alignas(cmsghdr) unsigned char control[kBatch][kControlBytes];
     for (std::size_t k = 0; k < want; ++k) {
-      iov[k] = iovec{&cf[k], sizeof(can_frame)};
+      iov[k] = iovec{&cf[k], sizeof(canfd_frame)};
       msgs[k].msg_hdr.msg_iov = &iov[k];
       msgs[k].msg_hdr.msg_iovlen = 1;
       msgs[k].msg_hdr.msg_control = control[k];

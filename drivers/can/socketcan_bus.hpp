@@ -10,6 +10,10 @@
 // - Frames lost because our socket receive buffer was full are counted (SO_RXQ_OVFL) in
 //   counters().rx_overruns.
 // - send(): ENOBUFS/EAGAIN (queue full) -> kWouldBlock, counted in tx_dropped.
+// - CAN FD (SocketCanConfig::fd_frames): CAN_RAW_FD_FRAMES on, the interface must carry FD
+//   frames (MTU 72: `ip link set vcan0 mtu 72`, or a controller set up with `fd on`), and
+//   struct canfd_frame is read and written; classic frames still pass on the same socket.
+//   Without it an FD frame is refused by send() (kIoError, EINVAL).
 // - Bus-off (from an error frame) is latched: send/receive return kBusOff until restart().
 //
 // restart() and privileges: leaving bus-off on a real controller means restarting it,
@@ -35,7 +39,7 @@
 #include "drivers/can/can_bus.hpp"
 #include "drivers/can/socketcan_error.hpp"
 
-struct can_frame;  // <linux/can.h>
+struct canfd_frame;  // <linux/can.h>
 struct msghdr;     // <sys/socket.h>
 
 namespace dualv::drivers {
@@ -60,6 +64,7 @@ struct SocketCanConfig {
   int receive_buffer_bytes = 0;    // SO_RCVBUF; 0 keeps the kernel default
   int send_buffer_bytes = 0;       // SO_SNDBUF; 0 keeps the kernel default (small values
                                    // make ENOBUFS/EAGAIN reachable in tests)
+  bool fd_frames = false;          // CAN FD frames too (CAN_RAW_FD_FRAMES; see above)
 };
 
 // Details of error frames beyond BusCounters, for health reports.
@@ -100,6 +105,8 @@ class SocketCanBus final : public CanBus {
 
   const CanErrorStats& error_stats() const noexcept { return errors_; }
   const std::string& interface_name() const noexcept { return interface_; }
+  // True when the socket carries CAN FD frames (SocketCanConfig::fd_frames).
+  bool fd_frames() const noexcept { return fd_frames_; }
   // True on vcan/vxcan (no controller, no bus-off of its own).
   bool is_virtual() const noexcept { return virtual_; }
   // errno of the last failed syscall in send/receive (0 if none), for diagnostics.
@@ -117,7 +124,7 @@ class SocketCanBus final : public CanBus {
   enum class Read : std::uint8_t { kFrame, kErrorFrame, kNone, kFailed };
   Read read_one(fw::CanFrame& frame) noexcept;
   // One received message (frame or error frame) with its control data, into `frame`.
-  Read take(const ::can_frame& cf, ::msghdr& msg, std::size_t bytes,
+  Read take(const ::canfd_frame& cf, ::msghdr& msg, std::size_t bytes,
             fw::CanFrame& frame) noexcept;
 
   void on_error_frame(std::uint32_t can_id, const std::array<std::uint8_t, 8>& data) noexcept;
@@ -125,6 +132,7 @@ class SocketCanBus final : public CanBus {
   std::string interface_;
   int fd_ = -1;
   bool virtual_ = false;
+  bool fd_frames_ = false;
   bool bus_off_ = false;
   bool error_passive_ = false;
   bool restarted_since_bus_off_ = false;

@@ -69,6 +69,14 @@ bool is_dummy_mapping(const ConfigWrite& w) {
          w.entry.subindex >= 1 && fw::is_dummy(fw::decode_mapping(w.value));
 }
 
+// The write of the FD RPDO's mapping count (CAN FD layout): more than 64 bits, which a
+// classic CANopen drive aborts (06040042h, CiA 301 7.5.2.36).
+bool is_fd_mapping_count(const ConfigWrite& w, const CanConfig& c) {
+  return c.bus_layout == fw::BusLayout::kFd &&
+         w.entry.index == fw::od::kRpdoMappingBase + fw::kFdRpdoNumber - 1 &&
+         w.entry.subindex == 0 && w.value != 0;
+}
+
 std::uint32_t raw16(std::int16_t v) { return static_cast<std::uint16_t>(v); }
 
 std::uint32_t mask(const fw::OdEntry& e) {
@@ -108,8 +116,18 @@ std::vector<ConfigWrite> boot_writes(const CanConfig& c, int drive) {
       {fw::od::kProducerHeartbeat, ms(c.drive_heartbeat_period_ns), "drive heartbeat (1017h)"});
 
   const std::uint16_t deadline = ms(c.rpdo_deadline_ns);
-  if (c.rpdo_layout == fw::RpdoLayoutKind::kPerDrive) {
+  const auto drives = static_cast<std::uint8_t>(c.drives.size());
+  if (c.bus_layout == fw::BusLayout::kPerDrive) {
     add_pdo(w, PdoDirection::kRpdo, 1, fw::cob_id(fw::Function::kRpdo1, id), fw::kRpdo1Layout,
+            fw::kTransmissionSyncEvery, deadline, true);
+  } else if (c.bus_layout == fw::BusLayout::kFd) {
+    // RPDO1 off (its COB-ID 200h+id stays unused); the FD RPDO2 on 200h carries the
+    // controlword + torque of every drive, applied at SYNC, with the deadline.
+    w.push_back({fw::od::pdo_cob_id(PdoDirection::kRpdo, 1),
+                 fw::pdo_cob_id_value(fw::cob_id(fw::Function::kRpdo1, id), false, true),
+                 "RPDO1 not valid (fd: the FD RPDO carries the controlword)"});
+    add_pdo(w, PdoDirection::kRpdo, fw::kFdRpdoNumber, fw::kBroadcastRpdoCobId,
+            fw::fd_rpdo_layout(static_cast<std::uint8_t>(drive), drives),
             fw::kTransmissionSyncEvery, deadline, true);
   } else {
     // Controlword alone in RPDO1, applied on receipt (event driven); the torques in the
@@ -121,7 +139,7 @@ std::vector<ConfigWrite> boot_writes(const CanConfig& c, int drive) {
                                       static_cast<std::uint8_t>(c.drives.size())),
             fw::kTransmissionSyncEvery, deadline, true);
   }
-  if (c.rpdo_layout == fw::RpdoLayoutKind::kPerDrive) {
+  if (c.bus_layout != fw::BusLayout::kBroadcast) {  // per_drive and fd: the same TPDO1
     add_pdo(w, PdoDirection::kTpdo, 1, fw::cob_id(fw::Function::kTpdo1, id), fw::kTpdo1Layout,
             fw::kTransmissionSyncEvery, 0, false);
   } else {
@@ -231,9 +249,19 @@ void configure(CanopenMaster& m, const CanConfig& c, int i, std::vector<SkippedO
         throw SdoError(
             fmt::format("node {} (can.drives[{}]) refuses the CiA 301 dummy mapping entry {:04X}h "
                         "({} bits) in {}: aborted {:08X}h {}. This drive cannot run "
-                        "can.rpdo_layout: broadcast; use per_drive",
+                        "can.bus_layout: {}; use per_drive",
                         id, i, fw::decode_mapping(w.value).index, fw::decode_mapping(w.value).bits,
-                        describe(w.entry), e.code(), fw::sdo_abort_text(e.code())),
+                        describe(w.entry), e.code(), fw::sdo_abort_text(e.code()),
+                        fw::to_string(c.bus_layout)),
+            e.node(), e.index(), e.subindex(), e.status(), e.code());
+      if (e.status() == SdoStatus::kAborted && is_fd_mapping_count(w, c))
+        throw SdoError(
+            fmt::format("node {} (can.drives[{}]) refuses the {}-byte CAN FD RPDO mapping ({} "
+                        "entries in {}): aborted {:08X}h {}. This drive is not a CAN FD "
+                        "(CiA 1301) device, its PDOs end at 8 bytes: it cannot run "
+                        "can.bus_layout: fd; use per_drive or broadcast",
+                        id, i, fw::fd_rpdo_bytes(static_cast<std::uint8_t>(c.drives.size())),
+                        w.value, describe(w.entry), e.code(), fw::sdo_abort_text(e.code())),
             e.node(), e.index(), e.subindex(), e.status(), e.code());
       if (w.object == nullptr || w.policy != ObjectPolicy::kOptional ||
           e.status() != SdoStatus::kAborted || !means_absent(e.code(), w.entry)) {

@@ -65,20 +65,21 @@ std::string describe(const SkippedObject& s);
 
 // The writes for drive `drive` (0..n-1), in the order they are sent:
 //   1017h producer heartbeat time (ms);
-//   cyclic RPDO (RPDO1 per-drive, RPDO2 broadcast) and, broadcast only, the controlword
-//   RPDO1: COB-ID invalid, mapping count 0, mapping entries, count, transmission type,
+//   cyclic RPDO (RPDO1 per-drive, RPDO2 broadcast or fd: fw::fd_rpdo_layout, 16 bytes for four
+//   drives, in one CAN FD frame; RPDO1 is then left not valid) and, broadcast only, the
+//   controlword RPDO1: COB-ID invalid, mapping count 0, mapping entries, count, transmission type,
 //   event timer (deadline, 1400h sub5, on the cyclic RPDO), COB-ID valid (CiA 301 7.5.2.35:
 //   a mapping is only changed while the PDO is invalid);
-//   TPDO1: the same, transmission type 1 (every SYNC): statusword + position (per-drive) or
-//   position alone (broadcast); broadcast only, TPDO3 = statusword, transmission type 255
-//   (on change), inhibit time can.statusword_inhibit, event timer can.statusword_refresh;
-//   TPDO2 (when can.digital_inputs_refresh > 0): 60FDh digital inputs, transmission type
-//   255 (on change), inhibit time 1 ms, event timer = the refresh;
-//   6060h = 10 (cyclic synchronous torque), 6072h max torque (per mille of rated),
-//   605Ah quick stop option, 605Eh fault reaction option, 6007h abort connection option,
-//   1006h communication cycle period = SYNC period (us), 60C2h interpolation period = SYNC
-//   period, 1019h SYNC counter overflow (when a counter is used), 1016h sub1 consumer
-//   heartbeat of the master (last: from here on the drive watches the host).
+//   TPDO1: the same, transmission type 1 (every SYNC): statusword + position (per-drive, and
+//   fd: sent as an FD frame) or position alone (broadcast); broadcast only, TPDO3 = statusword,
+//   transmission type 255 (on change), inhibit time can.statusword_inhibit, event timer
+//   can.statusword_refresh; TPDO2 (when can.digital_inputs_refresh > 0): 60FDh digital inputs,
+//   transmission type 255 (on change), inhibit time 1 ms, event timer = the refresh; 6060h = 10
+//   (cyclic synchronous torque), 6072h max torque (per mille of rated), 605Ah quick stop option,
+//   605Eh fault reaction option, 6007h abort connection option, 1006h communication cycle period =
+//   SYNC period (us), 60C2h interpolation period = SYNC period, 1019h SYNC counter overflow (when a
+//   counter is used), 1016h sub1 consumer heartbeat of the master (last: from here on the drive
+//   watches the host).
 // Objects whose policy is off (can.objects) are left out.
 std::vector<ConfigWrite> boot_writes(const CanConfig& config, int drive);
 
@@ -88,8 +89,10 @@ bool interpolation_period(std::uint64_t period_ns, std::uint8_t& value,
                           std::int8_t& index) noexcept;
 
 // Runs the whole sequence above. A drive that aborts the write of a dummy mapping entry
-// (broadcast layout) gets an SdoError naming the node, can.drives[i], the entry and the
-// mapping object, and saying to use can.rpdo_layout: per_drive.
+// (broadcast and fd layouts) gets an SdoError naming the node, can.drives[i], the entry and
+// the mapping object, and saying to use can.bus_layout: per_drive; one that aborts the FD
+// RPDO's mapping count (more than 8 bytes: not a CAN FD device) an SdoError naming it and
+// saying to use per_drive or broadcast.
 // Throws BootTimeoutError, SdoError or CanopenError
 // (what() names the node and the object), or ConfigError for a drive whose parameters do
 // not match the configuration. Returns the optional objects skipped, each also given to

@@ -31,7 +31,7 @@ std::map<std::string, std::vector<std::string>> rows(const std::string& out) {
     std::istringstream words(line);
     std::vector<std::string> w;
     for (std::string s; words >> s;) w.push_back(s);
-    if (w.size() == 13 && (w[0] == "per_drive" || w[0] == "broadcast" || w[0] == "can_fd"))
+    if (w.size() == 13 && (w[0] == "per_drive" || w[0] == "broadcast" || w[0] == "fd"))
       r[w[0]] = w;
   }
   return r;
@@ -47,9 +47,9 @@ TEST(BusLoadCli, ShippedConfigurationByHand) {
   EXPECT_EQ(r.at("per_drive")[4], "89.5");
   EXPECT_EQ(r.at("broadcast")[1], "570");
   EXPECT_EQ(r.at("broadcast")[6], "63.0");  // 57 % + 8 event frames of 75 us per 10 ms
-  EXPECT_EQ(r.at("can_fd")[1], "220");
-  EXPECT_EQ(r.at("can_fd")[2], "570");
-  EXPECT_EQ(r.at("can_fd")[3], "334.0");  // 220 us + 570 bits at 5 Mbit/s
+  EXPECT_EQ(r.at("fd")[1], "220");
+  EXPECT_EQ(r.at("fd")[2], "570");
+  EXPECT_EQ(r.at("fd")[3], "334.0");  // 220 us + 570 bits at 5 Mbit/s
   for (const auto& [layout, w] : r) EXPECT_EQ(w[12], "yes") << layout;
 }
 
@@ -77,10 +77,10 @@ TEST(BusLoadCli, TwoDrivesAt2500HzByHand) {
   EXPECT_EQ(r.at("broadcast")[12], "yes");
   // FD: RPDO 8 B = 33 + (5 + 64 + 27 + floor(85 / 4) - 3 = 114); 2 x TPDO 6 B = 33 + 94.
   // 55 + 33 + 66 = 154 nominal, 114 + 188 = 302 data bits: 154 us + 60.4 us = 214.4 us.
-  EXPECT_EQ(r.at("can_fd")[1], "154");
-  EXPECT_EQ(r.at("can_fd")[2], "302");
-  EXPECT_EQ(r.at("can_fd")[3], "214.4");
-  EXPECT_EQ(r.at("can_fd")[12], "yes");
+  EXPECT_EQ(r.at("fd")[1], "154");
+  EXPECT_EQ(r.at("fd")[2], "302");
+  EXPECT_EQ(r.at("fd")[3], "214.4");
+  EXPECT_EQ(r.at("fd")[12], "yes");
 }
 
 }  // namespace

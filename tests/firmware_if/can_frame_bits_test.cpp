@@ -240,8 +240,8 @@ TEST(CanFrameBits, FdSizes) {
   EXPECT_EQ(fd_frame_bytes(16), 16);
   EXPECT_EQ(fd_frame_bytes(33), 48);
   EXPECT_EQ(fd_frame_bytes(200), 64);
-  EXPECT_EQ(fd_dlc(12), 9);
-  EXPECT_EQ(fd_dlc(64), 15);
+  EXPECT_EQ(fd_dlc_code(12), 9);
+  EXPECT_EQ(fd_dlc_code(64), 15);
   EXPECT_EQ(fd_crc_bits(16), 17u);
   EXPECT_EQ(fd_crc_bits(20), 21u);
   // Stuff count 4 + CRC-17 + 6 fixed stuff bits; 4 + CRC-21 + 7.

@@ -193,3 +193,97 @@ TEST(Pdo, Malformed) {
 
 }  // namespace
 }  // namespace dualv::fw
+
+namespace dualv::fw {
+namespace {
+
+// The CAN FD RPDO mapping of node 2 (slot 1) of four, entry by entry as 0xIIIISSLL (CiA 301
+// 7.4.7.1): dummies UNSIGNED16 0006h + INTEGER16 0003h for the others' slices.
+TEST(FdPdo, MappingOfSlot1ByHand) {
+  const PdoLayout l = fd_rpdo_layout(1, 4);
+  ASSERT_EQ(l.count, 8);
+  const std::uint32_t want[8] = {0x00060010, 0x00030010, 0x60400010, 0x60710010,
+                                 0x00060010, 0x00030010, 0x00060010, 0x00030010};
+  for (int i = 0; i < 8; ++i)
+    EXPECT_EQ(encode_mapping(l.entries[static_cast<std::size_t>(i)]), want[i]) << i;
+  EXPECT_EQ(l.bytes(), 16);
+  EXPECT_EQ(l.offset_of(od::kControlword), 4);
+  EXPECT_EQ(l.offset_of(od::kTargetTorque), 6);
+  EXPECT_EQ(fd_rpdo_bytes(4), 16);
+  EXPECT_EQ(fd_rpdo_bytes(3), 12);  // an FD size itself
+  EXPECT_EQ(fd_rpdo_layout(0, 5).count, 0);
+  EXPECT_EQ(fd_rpdo_layout(0, 0).count, 0);
+}
+
+TEST(FdPdo, CommandsFrameByHand) {
+  FdCommands c;
+  c.drives = 4;
+  c.command = {DriveCommand{0x000F, 100}, DriveCommand{0x0006, -100}, DriveCommand{0x0007, 0},
+               DriveCommand{0x0080, -32768}};
+  const Result<CanFrame> f = encode_fd_commands(c);
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->id, 0x200u);
+  EXPECT_TRUE(f->fd);
+  EXPECT_TRUE(f->brs);
+  EXPECT_EQ(f->dlc, 16);
+  const std::uint8_t want[16] = {0x0F, 0x00, 0x64, 0x00, 0x06, 0x00, 0x9C, 0xFF,
+                                 0x07, 0x00, 0x00, 0x00, 0x80, 0x00, 0x00, 0x80};
+  for (int i = 0; i < 16; ++i) EXPECT_EQ(f->data[static_cast<std::size_t>(i)], want[i]) << i;
+  for (std::size_t i = 16; i < f->data.size(); ++i) EXPECT_EQ(f->data[i], 0) << i;
+  const Result<FdCommands> back = decode_fd_commands(*f, 4);
+  ASSERT_TRUE(back);
+  EXPECT_EQ(*back, c);
+  const Result<DriveCommand> slot1 = decode_fd_command(*f, 1);
+  ASSERT_TRUE(slot1);
+  EXPECT_EQ(slot1->controlword, 0x0006);
+  EXPECT_EQ(slot1->target_torque, -100);
+}
+
+TEST(FdPdo, ThreeDrivesTakeTheTwelveByteSize) {
+  FdCommands c;
+  c.drives = 3;
+  c.command[2] = {0x000F, 1};
+  const Result<CanFrame> f = encode_fd_commands(c);
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->dlc, 12);
+  EXPECT_EQ(f->data[8], 0x0F);
+  EXPECT_EQ(f->data[10], 1);
+  EXPECT_FALSE(decode_fd_command(*f, 3));  // no slot 3 in 12 bytes
+}
+
+TEST(FdPdo, RefusesWhatIsNotTheLayout) {
+  FdCommands none;
+  EXPECT_EQ(encode_fd_commands(none).error(), Error::kBadValue);
+  none.drives = 5;
+  EXPECT_EQ(encode_fd_commands(none).error(), Error::kBadValue);
+  // The classic broadcast frame on the same COB-ID is not an FD RPDO.
+  BroadcastTorques t;
+  t.drives = 4;
+  const Result<CanFrame> classic = encode_broadcast_torques(t);
+  ASSERT_TRUE(classic);
+  EXPECT_EQ(decode_fd_command(*classic, 0).error(), Error::kWrongDlc);
+  CanFrame other = data_frame(0x201, 16, true);
+  EXPECT_EQ(decode_fd_command(other, 0).error(), Error::kWrongFunction);
+}
+
+TEST(FdPdo, Tpdo1AsFdFrameByHand) {
+  const Result<CanFrame> f = encode_fd_tpdo1(3, DriveFeedback{0x0637, -2});
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->id, 0x183u);
+  EXPECT_TRUE(f->fd && f->brs);
+  EXPECT_EQ(f->dlc, 6);
+  const std::uint8_t want[6] = {0x37, 0x06, 0xFE, 0xFF, 0xFF, 0xFF};
+  for (int i = 0; i < 6; ++i) EXPECT_EQ(f->data[static_cast<std::size_t>(i)], want[i]) << i;
+  const Result<DriveFeedback> back = decode_tpdo1(*f);
+  ASSERT_TRUE(back);
+  EXPECT_EQ(back->position, -2);
+}
+
+TEST(BusLayoutEnum, NamesAreTheConfigValues) {
+  EXPECT_STREQ(to_string(BusLayout::kPerDrive), "per_drive");
+  EXPECT_STREQ(to_string(BusLayout::kBroadcast), "broadcast");
+  EXPECT_STREQ(to_string(BusLayout::kFd), "fd");
+}
+
+}  // namespace
+}  // namespace dualv::fw

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # HIL (issue 15): the broadcast bus layout over real SocketCAN (vcan0, through run_in_vcan.sh)
-# between two processes, with the SHIPPED configuration but for one key, can.rpdo_layout:
+# between two processes, with the SHIPPED configuration but for one key, can.bus_layout:
 # broadcast (no widened deadline, 1 kHz, the shipped inhibit times):
 #   `dualv sim --can vcan0`  four emulated drives (the master maps them: one 200h RPDO with
 #                            every torque, own slice + dummies; TPDO1 position; TPDO3
@@ -48,11 +48,11 @@ show() {
 
 # The shipped configuration with the broadcast layout: one key changed, nothing else.
 config=$tmp/dualv-broadcast.yaml
-sed -e 's/^  rpdo_layout: per_drive /  rpdo_layout: broadcast /' "$config_in" >"$config"
-grep -Eq '^  rpdo_layout: broadcast ' "$config" ||
-  { echo "FAIL: could not set can.rpdo_layout: broadcast in $config_in (format changed?)"; exit 1; }
+sed -e 's/^  bus_layout: per_drive /  bus_layout: broadcast /' "$config_in" >"$config"
+grep -Eq '^  bus_layout: broadcast ' "$config" ||
+  { echo "FAIL: could not set can.bus_layout: broadcast in $config_in (format changed?)"; exit 1; }
 [[ $(diff "$config_in" "$config" | grep -c '^>') -eq 1 ]] ||
-  { echo "FAIL: the overlay changed more than can.rpdo_layout"; exit 1; }
+  { echo "FAIL: the overlay changed more than can.bus_layout"; exit 1; }
 
 # --- 1, 2, 4: the paper program with the broadcast layout ---------------------------------
 mkdir -p "$tmp/dump"

@@ -35,9 +35,9 @@ def parse_config(path):
                        "max": float(fields["max_torque"])})
     if not drives:
         raise SystemExit(f"check_broadcast_wire: no can.drives entries in {path}")
-    layout = re.search(r"\n\s+rpdo_layout:\s*(\w+)", text)
+    layout = re.search(r"\n\s+bus_layout:\s*(\w+)", text)
     if not layout or layout.group(1) != "broadcast":
-        raise SystemExit(f"check_broadcast_wire: {path} does not say rpdo_layout: broadcast")
+        raise SystemExit(f"check_broadcast_wire: {path} does not say bus_layout: broadcast")
     inhibit = re.search(r"\n\s+statusword_inhibit:\s*([0-9.]+)", text)
     if not inhibit:
         raise SystemExit(f"check_broadcast_wire: no can.statusword_inhibit in {path}")

@@ -40,9 +40,9 @@ def parse_config(path):
         })
     if not drives:
         raise SystemExit(f"check_paper_wire: no can.drives entries in {path}")
-    layout = re.search(r"\n\s+rpdo_layout:\s*(\w+)", text)
+    layout = re.search(r"\n\s+bus_layout:\s*(\w+)", text)
     if layout and layout.group(1) != "per_drive":
-        raise SystemExit(f"check_paper_wire: rpdo_layout {layout.group(1)}: only per_drive is checked")
+        raise SystemExit(f"check_paper_wire: bus_layout {layout.group(1)}: only per_drive is checked")
     safety = text[text.index("\nsafety:"):]
     torque = re.search(r"\n\s+torque:\s*\n\s+max:\s*([0-9.]+)", safety)
     if not torque:

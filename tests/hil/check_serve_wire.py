@@ -36,9 +36,9 @@ def parse_config(path):
         })
     if not drives:
         raise SystemExit(f"check_serve_wire: no can.drives entries in {path}")
-    layout = re.search(r"\n\s+rpdo_layout:\s*(\w+)", text)
+    layout = re.search(r"\n\s+bus_layout:\s*(\w+)", text)
     if layout and layout.group(1) != "per_drive":
-        raise SystemExit(f"check_serve_wire: rpdo_layout {layout.group(1)}: only per_drive is checked")
+        raise SystemExit(f"check_serve_wire: bus_layout {layout.group(1)}: only per_drive is checked")
     can = text[text.index("\ncan:"):]
     deadline = re.search(r"\n  rpdo_deadline:\s*([0-9.eE+-]+)", can)
     if not deadline or float(deadline.group(1)) <= 0:

@@ -50,7 +50,7 @@ struct CanRig {
   void drain_wire() {
     fw::CanFrame f;
     while (rig.monitor_bus().receive(f) == drivers::BusStatus::kOk) {
-      if (f.id == 0x200 && can.rpdo_layout != fw::RpdoLayoutKind::kPerDrive) {
+      if (f.id == 0x200 && can.bus_layout != fw::BusLayout::kPerDrive) {
         const auto b = fw::decode_broadcast_torques(f);
         if (!b.ok()) continue;
         for (int i = 0; i < 4; ++i) observe(i, b->torque[i], stats.last_controlword[i]);

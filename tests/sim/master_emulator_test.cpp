@@ -280,7 +280,7 @@ TEST_F(MasterEmulator, ForeignDriveBootsAndRuns) {
 // the wire (a monitor sees every frame) against the frames the layout defines.
 TEST(MasterEmulatorBroadcast, BootsRunsAndTheWireIsTheLayout) {
   drivers::CanConfig c = drivers::load_can_config_file(test::config_file());
-  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  c.bus_layout = fw::BusLayout::kBroadcast;
   InProcessCanRig r(test::dual_v(), load_plant_config_file(test::config_file()), c, 4096);
   drivers::canopen::ManualClock clk;
   RigWaiter w(r, clk);
@@ -370,7 +370,7 @@ TEST(MasterEmulatorBroadcast, BootsRunsAndTheWireIsTheLayout) {
 
 TEST(MasterEmulatorBroadcast, DriveWithoutDummyMappingRefusedByName) {
   drivers::CanConfig c = drivers::load_can_config_file(test::config_file());
-  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  c.bus_layout = fw::BusLayout::kBroadcast;
   DriveEmulatorConfig e = emulator_config_from(c);
   e.refuse_dummy_mapping = true;
   InProcessCanRig r(test::dual_v(), load_plant_config_file(test::config_file()), e);
@@ -387,6 +387,105 @@ TEST(MasterEmulatorBroadcast, DriveWithoutDummyMappingRefusedByName) {
         << m;
     EXPECT_NE(m.find("1601h sub2"), std::string::npos) << m;
     EXPECT_NE(m.find("use per_drive"), std::string::npos) << m;
+  }
+  for (int i = 0; i < 4; ++i) EXPECT_NE(r.emulator().status(i).nmt, EmulatedNmt::kOperational);
+}
+
+// Issue 15: the CAN FD layout booted by the real master into CAN FD drives, the mappings read
+// back from the drives and every frame on the wire checked against the layout by hand.
+TEST(MasterEmulatorFd, BootsRunsAndTheWireIsTheLayout) {
+  drivers::CanConfig c = drivers::load_can_config_file(test::config_file());
+  c.bus_layout = fw::BusLayout::kFd;
+  InProcessCanRig r(test::dual_v(), load_plant_config_file(test::config_file()), c, 4096);
+  drivers::canopen::ManualClock clk;
+  RigWaiter w(r, clk);
+  auto set = drivers::boot_actuator_set(r.master_bus(), clk, w, c);
+  // Node 3 (slot 2): RPDO2 (1401h/1601h) on 200h maps dummy u16 (0006h), dummy i16 (0003h)
+  // for slots 0 and 1, its own 6040h + 6071h, then dummies for slot 3; RPDO1 not valid
+  // (bit 31); TPDO1 = 6041h + 6064h every SYNC.
+  std::uint32_t v = 0;
+  const std::vector<std::pair<std::pair<std::uint16_t, std::uint8_t>, std::uint32_t>> want = {
+      {{0x1400, 1}, 0x80000203}, {{0x1401, 1}, 0x00000200}, {{0x1401, 2}, 1},
+      {{0x1601, 0}, 8},          {{0x1601, 1}, 0x00060010}, {{0x1601, 2}, 0x00030010},
+      {{0x1601, 3}, 0x00060010}, {{0x1601, 4}, 0x00030010}, {{0x1601, 5}, 0x60400010},
+      {{0x1601, 6}, 0x60710010}, {{0x1601, 7}, 0x00060010}, {{0x1601, 8}, 0x00030010},
+      {{0x1A00, 0}, 2},          {{0x1A00, 1}, 0x60410010}, {{0x1A00, 2}, 0x60640020},
+      {{0x1800, 2}, 1}};
+  for (const auto& [key, value] : want) {
+    ASSERT_TRUE(r.emulator().read_object(2, key.first, key.second, v));
+    EXPECT_EQ(v, value) << std::hex << key.first << " sub " << int(key.second);
+  }
+  (void)drain_all(r.monitor_bus());
+  drivers::ActuatorFeedback f;
+  drivers::ActuatorCommand cmd;
+  cmd.n = 4;
+  int fd_rpdos = 0, tpdos = 0, syncs = 0, others = 0;
+  fw::CanFrame last_rpdo;
+  for (int k = 0; k < 300; ++k) {
+    set->read(f);
+    cmd.request = drivers::DriveRequest::kEnable;
+    cmd.torque = {0.5, -0.5, 0.25, -0.25};
+    set->write(cmd);
+    r.step(c.sync_period_ns);
+    clk.set_ns(r.now_ns());
+    for (const fw::CanFrame& fr : drain_all(r.monitor_bus())) {
+      if (fr.id == 0x080) {
+        ++syncs;
+        EXPECT_FALSE(fr.fd);  // SYNC stays classic
+      } else if (fr.id == 0x200) {
+        ++fd_rpdos;
+        EXPECT_TRUE(fr.fd);
+        EXPECT_TRUE(fr.brs);
+        EXPECT_EQ(fr.dlc, 16);
+        last_rpdo = fr;
+      } else if (fr.id >= 0x181 && fr.id <= 0x184) {
+        ++tpdos;
+        EXPECT_TRUE(fr.fd);
+        EXPECT_TRUE(fr.brs);
+        EXPECT_EQ(fr.dlc, 6);
+      } else if ((fr.id >= 0x201 && fr.id <= 0x204) || (fr.id >= 0x381 && fr.id <= 0x384)) {
+        ++others;  // no per-drive RPDO, no statusword TPDO3
+      }
+    }
+  }
+  EXPECT_EQ(syncs, 300);
+  EXPECT_EQ(fd_rpdos, 300);
+  EXPECT_EQ(tpdos, 4 * 300);
+  EXPECT_EQ(others, 0);
+  // The last RPDO by hand: Operation enabled (controlword 000Fh) and 0.5, -0.5, 0.25, -0.25 N m
+  // of 50 N m rated = 10, -10, 5, -5 per mille, little endian, 4 bytes per drive.
+  const std::array<std::uint8_t, 16> bytes{0x0F, 0, 10, 0, 0x0F, 0, 0xF6, 0xFF,
+                                           0x0F, 0, 5,  0, 0x0F, 0, 0xFB, 0xFF};
+  for (std::size_t b = 0; b < bytes.size(); ++b) EXPECT_EQ(last_rpdo.data[b], bytes[b]) << b;
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(r.emulator().status(i).state, fw::Cia402State::kOperationEnabled) << i;
+    EXPECT_EQ(f.drive[static_cast<std::size_t>(i)].state, drivers::DriveState::kEnabled) << i;
+    EXPECT_TRUE(f.drive[static_cast<std::size_t>(i)].fresh) << i;
+    EXPECT_EQ(r.emulator().status(i).counters.deadline_trips, 0u) << i;
+  }
+  EXPECT_EQ(r.emulator().status(1).target_torque, -10);
+  EXPECT_EQ(r.emulator().status(3).target_torque, -5);
+}
+
+TEST(MasterEmulatorFd, ClassicDriveRefusedByName) {
+  drivers::CanConfig c = drivers::load_can_config_file(test::config_file());
+  c.bus_layout = fw::BusLayout::kFd;
+  DriveEmulatorConfig e = emulator_config_from(c);
+  ASSERT_TRUE(e.fd);
+  e.fd = false;  // dualv sim --no-fd: PDOs end at 8 bytes
+  InProcessCanRig r(test::dual_v(), load_plant_config_file(test::config_file()), e);
+  drivers::canopen::ManualClock clk;
+  RigWaiter w(r, clk);
+  try {
+    (void)drivers::boot_actuator_set(r.master_bus(), clk, w, c);
+    FAIL() << "booted";
+  } catch (const std::exception& ex) {
+    const std::string m = ex.what();
+    EXPECT_NE(m.find("node 1 (can.drives[0]) refuses the 16-byte CAN FD RPDO mapping"),
+              std::string::npos)
+        << m;
+    EXPECT_NE(m.find("06040042h"), std::string::npos) << m;  // mapping exceeds the PDO length
+    EXPECT_NE(m.find("use per_drive or broadcast"), std::string::npos) << m;
   }
   for (int i = 0; i < 4; ++i) EXPECT_NE(r.emulator().status(i).nmt, EmulatedNmt::kOperational);
 }

@@ -387,3 +387,35 @@ TEST(InProcessBus, UsableThroughTheCanBusInterface) {
 
 }  // namespace
 }  // namespace dualv::drivers
+
+namespace dualv::drivers {
+namespace {
+
+TEST(InProcessBusFd, CarriesFdFramesWhole) {
+  InProcessHub hub(2);
+  fw::CanFrame f = fw::data_frame(0x200, 64, true);
+  for (std::size_t i = 0; i < 64; ++i) f.data[i] = static_cast<std::uint8_t>(0xA0 ^ i);
+  ASSERT_EQ(hub.endpoint(0).send(f), BusStatus::kOk);
+  const std::vector<fw::CanFrame> got = drain(hub.endpoint(1));
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_TRUE(got[0].fd);
+  EXPECT_TRUE(got[0].brs);
+  EXPECT_EQ(got[0].dlc, 64);
+  EXPECT_EQ(got[0].data[63], 0xA0 ^ 63);
+  EXPECT_EQ(got[0], f);
+}
+
+TEST(InProcessBusFd, RefusesFramesNoControllerSends) {
+  InProcessHub hub(2);
+  fw::CanFrame classic9 = make_frame(0x181, 1, 8);
+  classic9.dlc = 9;
+  fw::CanFrame fd13 = fw::data_frame(0x181, 12, true);
+  fd13.dlc = 13;
+  EXPECT_EQ(hub.endpoint(0).send(classic9), BusStatus::kIoError);
+  EXPECT_EQ(hub.endpoint(0).send(fd13), BusStatus::kIoError);
+  EXPECT_EQ(hub.endpoint(0).counters().tx_dropped, 2u);
+  EXPECT_TRUE(drain(hub.endpoint(1)).empty());
+}
+
+}  // namespace
+}  // namespace dualv::drivers

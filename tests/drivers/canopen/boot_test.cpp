@@ -377,7 +377,7 @@ TEST(Boot, NotACia402DriveRefused) {
 
 TEST(Boot, BroadcastLayoutWrites) {
   CanConfig c = config_for(4);
-  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  c.bus_layout = fw::BusLayout::kBroadcast;
   const std::vector<ConfigWrite> w = boot_writes(c, 1);
   auto find = [&](const fw::OdEntry& e) -> const ConfigWrite* {
     for (const auto& x : w)
@@ -402,7 +402,7 @@ TEST(Boot, BroadcastLayoutWrites) {
 
 TEST(Boot, BroadcastLayoutFeedbackPdos) {
   CanConfig c = config_for(4);
-  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  c.bus_layout = fw::BusLayout::kBroadcast;
   c.statusword_inhibit_ns = 2'500'000;                   // 25 x 100 us
   c.statusword_refresh_ns = 40'000'000;                  // 40 ms
   const std::vector<ConfigWrite> w = boot_writes(c, 2);  // node 3
@@ -427,7 +427,7 @@ TEST(Boot, BroadcastLayoutFeedbackPdos) {
   EXPECT_EQ(last(0x1A02, 0), 1);
   EXPECT_EQ(last(0x1A02, 1), 0x60410010);
   // Per-drive: no TPDO3 is touched, TPDO1 is statusword + position.
-  c.rpdo_layout = fw::RpdoLayoutKind::kPerDrive;
+  c.bus_layout = fw::BusLayout::kPerDrive;
   const std::vector<ConfigWrite> p = boot_writes(c, 2);
   for (const auto& x : p) EXPECT_NE(x.entry.index, 0x1802);
   for (const auto& x : p)
@@ -442,7 +442,7 @@ TEST(Boot, DriveRefusingDummyMappingNamedWithTheObject) {
   b.slave(1).abort_on_write[{0x1601, 1}] =
       static_cast<std::uint32_t>(fw::SdoAbortCode::kCannotBeMapped);
   CanConfig c = config_for(2);
-  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  c.bus_layout = fw::BusLayout::kBroadcast;
   CanopenMaster m(b.master_bus(), b.clock, *b.waiter, drivers::master_config(c));
   try {
     boot_drives(m, c);

@@ -21,15 +21,15 @@ using test::FakeSlave;
 constexpr std::uint64_t kMs = 1'000'000;
 
 struct SetFixture : ::testing::Test {
-  explicit SetFixture(fw::RpdoLayoutKind layout = fw::RpdoLayoutKind::kPerDrive) : hub(6, 1024) {
+  explicit SetFixture(fw::BusLayout layout = fw::BusLayout::kPerDrive) : hub(6, 1024) {
     config = default_can_config();
-    config.rpdo_layout = layout;
+    config.bus_layout = layout;
     for (int i = 0; i < 4; ++i) {
       slaves.push_back(std::make_unique<FakeSlave>(hub.endpoint(static_cast<std::size_t>(i) + 1),
                                                    static_cast<std::uint8_t>(i + 1)));
       slaves.back()->nmt = fw::NmtState::kOperational;  // booted (boot_test covers boot)
       slaves.back()->slot = static_cast<std::uint8_t>(i);
-      slaves.back()->broadcast = layout == fw::RpdoLayoutKind::kBroadcast;
+      slaves.back()->broadcast = layout == fw::BusLayout::kBroadcast;
       slaves.back()->position = 10000 * (i + 1);
     }
     set = std::make_unique<CanopenActuatorSet>(hub.endpoint(0), clock, config);
@@ -51,7 +51,7 @@ struct SetFixture : ::testing::Test {
   void enable_all() {
     // Per-drive: a CiA 402 step a cycle. Broadcast: a step per can.controlword_inhibit
     // (10 ms), three steps.
-    const int cycles = config.rpdo_layout == fw::RpdoLayoutKind::kPerDrive ? 10 : 40;
+    const int cycles = config.bus_layout == fw::BusLayout::kPerDrive ? 10 : 40;
     for (int i = 0; i < cycles; ++i) cycle(DriveRequest::kEnable);
     cycle(DriveRequest::kHold);
     for (int i = 0; i < 4; ++i) ASSERT_EQ(fb.drive[i].state, DriveState::kEnabled) << i;
@@ -406,7 +406,7 @@ TEST(CanopenActuatorSetSetup, SyncCounterOnTheWire) {
   // Per-drive with a counter: 905 bits a cycle, 90.5 % at 1 kHz: above can.max_cyclic_load
   // (90 %, issue 15), refused. The broadcast layout carries it: 65 + 135 + 4 x 95 = 580.
   EXPECT_THROW(CanopenActuatorSet(hub.endpoint(0), clock, c), ConfigError);
-  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  c.bus_layout = fw::BusLayout::kBroadcast;
   CanopenActuatorSet set(hub.endpoint(0), clock, c);
   ActuatorCommand cmd;
   cmd.n = 4;
@@ -429,7 +429,7 @@ TEST(CanopenActuatorSetSetup, RefusesARateTheBusCannotCarry) {
 }
 
 struct BroadcastFixture : SetFixture {
-  BroadcastFixture() : SetFixture(fw::RpdoLayoutKind::kBroadcast) {}
+  BroadcastFixture() : SetFixture(fw::BusLayout::kBroadcast) {}
 };
 
 TEST_F(BroadcastFixture, OneTorqueFrameControlwordsOnChange) {

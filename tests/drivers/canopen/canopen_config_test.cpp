@@ -32,7 +32,7 @@ TEST(CanConfig, DefaultsAreTheContract) {
   for (int i = 0; i < 4; ++i) EXPECT_EQ(c.drives[i].node_id, i + 1);
   EXPECT_EQ(c.bitrate, 1'000'000u);
   EXPECT_EQ(c.sync_period_ns, 1'000'000u);
-  EXPECT_EQ(c.rpdo_layout, fw::RpdoLayoutKind::kPerDrive);
+  EXPECT_EQ(c.bus_layout, fw::BusLayout::kPerDrive);
   EXPECT_NO_THROW(validate(c));
 }
 
@@ -62,7 +62,7 @@ can:
   bitrate: 500000
   max_bus_load: 0.8
   max_cyclic_load: 0.75
-  rpdo_layout: broadcast
+  bus_layout: broadcast
   controlword_refresh: 0.2
   controlword_inhibit: 0.02
   statusword_inhibit: 0.0035
@@ -80,7 +80,7 @@ can:
   EXPECT_EQ(c.interface, "can1");
   EXPECT_EQ(c.bitrate, 500'000u);
   EXPECT_DOUBLE_EQ(c.max_bus_load, 0.8);
-  EXPECT_EQ(c.rpdo_layout, fw::RpdoLayoutKind::kBroadcast);
+  EXPECT_EQ(c.bus_layout, fw::BusLayout::kBroadcast);
   EXPECT_EQ(c.controlword_refresh_ns, 200'000'000u);
   EXPECT_DOUBLE_EQ(c.max_cyclic_load, 0.75);
   EXPECT_EQ(c.controlword_inhibit_ns, 20'000'000u);
@@ -125,7 +125,8 @@ TEST(CanConfigRules, Bitrate) {
 }
 TEST(CanConfigRules, MaxBusLoad) { expect_error("can: {max_bus_load: 1.5}", "can.max_bus_load"); }
 TEST(CanConfigRules, Layout) {
-  expect_error("can: {rpdo_layout: multicast}", "can.rpdo_layout: must be per_drive or broadcast");
+  expect_error("can: {bus_layout: multicast}",
+               "can.bus_layout: must be per_drive, broadcast or fd (got 'multicast')");
   expect_error("can: {max_cyclic_load: 0.97}",
                "can.max_cyclic_load: must be in (0, can.max_bus_load");
   expect_error("can: {controlword_inhibit: 0.2}",
@@ -138,15 +139,15 @@ TEST(CanConfigRules, Layout) {
   expect_error("can: {statusword_refresh: 0.005}",
                "can.statusword_refresh: must be whole milliseconds in [can.statusword_inhibit = "
                "0.01 s");
-  expect_error("can: {rpdo_layout: broadcast, timeouts: {transition: 0.02}}",
+  expect_error("can: {bus_layout: broadcast, timeouts: {transition: 0.02}}",
                "can.timeouts.transition: 0.02 s is too short for the broadcast layout");
 }
 TEST(CanConfigRules, BroadcastAtMostFourDrives) {
   expect_error(R"(can:
-  rpdo_layout: broadcast
+  bus_layout: broadcast
   sync: {period: 0.002}
   drives: [{node_id: 1}, {node_id: 2}, {node_id: 3}, {node_id: 4}, {node_id: 5}])",
-               "can.rpdo_layout: broadcast carries at most 4");
+               "can.bus_layout: broadcast carries at most 4");
 }
 TEST(CanConfigRules, SyncPeriod) {
   expect_error("can: {sync: {period: 0.00001}}", "can.sync.period");
@@ -352,7 +353,7 @@ TEST(CanBusLoad, ContractNumbers) {
   EXPECT_NEAR(r.total_load, 0.895, 1e-12);          // no event PDOs
   EXPECT_NEAR(r.max_rate_hz, 0.90 / 895e-6, 1e-6);  // the cyclic limit binds
   EXPECT_TRUE(r.fits);
-  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  c.bus_layout = fw::BusLayout::kBroadcast;
   r = bus_load_report(c);
   // "Beating the naive bus limit": 55 + 135 + 4 x 95; events: 2 x 4 frames of 75 bits at
   // most every 10 ms = 60000 bit/s = 6 % of the bus.
@@ -368,7 +369,7 @@ TEST(CanBusLoad, ContractNumbers) {
 
 TEST(CanBusLoad, InhibitTimesCountInTheLoad) {
   CanConfig c = default_can_config();
-  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  c.bus_layout = fw::BusLayout::kBroadcast;
   c.statusword_inhibit_ns = 2'000'000;   // 4 x 75 bits / 2 ms = 15 %
   c.controlword_inhibit_ns = 5'000'000;  // 4 x 75 bits / 5 ms = 6 %
   EXPECT_NEAR(bus_load_report(c).total_load, 0.570 + 0.15 + 0.06, 1e-12);
@@ -388,19 +389,68 @@ TEST(CanBusLoad, TooFastRateRefusedWithTheNumbers) {
     EXPECT_NE(m.find("895 bits/cycle"), std::string::npos) << m;
     EXPECT_NE(m.find("179.0 % cyclic (can.max_cyclic_load 90.0 %)"), std::string::npos) << m;
     EXPECT_NE(m.find("at most 1005.6 Hz"), std::string::npos) << m;
-    EXPECT_NE(m.find("rpdo_layout: broadcast"), std::string::npos) << m;
+    EXPECT_NE(m.find("bus_layout: broadcast"), std::string::npos) << m;
   }
-  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;  // 570 bits x 2 kHz = 1.14 Mbit/s: still no
+  c.bus_layout = fw::BusLayout::kBroadcast;  // 570 bits x 2 kHz = 1.14 Mbit/s: still no
   EXPECT_THROW((void)require_bus_load_fits(c), ConfigError);
   c.sync_period_ns = 1'000'000;
   EXPECT_NO_THROW((void)require_bus_load_fits(c));
+}
+
+TEST(CanConfigRules, OldLayoutKeyNamesTheNewOne) {
+  expect_error("can: {rpdo_layout: broadcast}", "can.rpdo_layout: renamed can.bus_layout");
+}
+TEST(CanConfigRules, FdKeys) {
+  expect_error("can: {fd: {nominal_bitrate: 1000000, data_bitrate: 5000000}}",
+               "can.fd.nominal_bitrate: the nominal (arbitration-phase) rate is can.bitrate");
+  expect_error("can: {fd: {data_bitrate: 500000}}",
+               "can.fd.data_bitrate: must be in [can.bitrate = 1000000, 8000000] bit/s (got "
+               "500000)");
+  expect_error("can: {fd: {data_bitrate: 10000000}}", "can.fd.data_bitrate: must be in");
+  expect_error("can: {fd: {databitrate: 5000000}}", "can.fd.databitrate: unknown key");
+  expect_error(R"(can:
+  bus_layout: fd
+  drives: [{node_id: 1}, {node_id: 2}, {node_id: 3}, {node_id: 4}, {node_id: 5}]
+)",
+               "can.bus_layout: fd carries at most 4 drives in one FD RPDO (got 5)");
+  const CanConfig c = load("can: {bus_layout: fd, fd: {data_bitrate: 2000000}}");
+  EXPECT_EQ(c.bus_layout, fw::BusLayout::kFd);
+  EXPECT_EQ(c.data_bitrate, 2'000'000u);
+}
+
+TEST(CanBusLoad, FdCarriesTwoPointFiveKilohertzAtFiveMegabit) {
+  // Issue 15's target: >= 2.5 kHz at <= 90 %. firmware_if/bus_layout.hpp's worst case for four
+  // drives: 220 bits at 1 Mbit/s + 570 data-phase bits at 5 Mbit/s = 334 us a cycle.
+  CanConfig c = default_can_config();
+  c.bus_layout = fw::BusLayout::kFd;
+  c.sync_period_ns = 400'000;  // 2.5 kHz
+  c.transition_timeout_ns = 500'000'000;
+  const fw::LayoutLoad r = require_bus_load_fits(c);
+  EXPECT_NEAR(r.cyclic_load, 334e-6 * 2500.0, 1e-9);
+  // The data phase at 2 Mbit/s: 220 us + 285 us = 505 us, 126 % at 2.5 kHz: refused, with the
+  // data rate in the message.
+  c.data_bitrate = 2'000'000;
+  try {
+    (void)require_bus_load_fits(c);
+    FAIL();
+  } catch (const ConfigError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("2500.0 Hz with the fd layout"), std::string::npos) << m;
+    EXPECT_NE(m.find("needs 505.0 us of bus time a cycle worst case (220 bits at 1000000 bit/s + "
+                     "570 data-phase bits at can.fd.data_bitrate 2000000 bit/s)"),
+              std::string::npos)
+        << m;
+    EXPECT_NE(m.find("at most 1782.2 Hz"), std::string::npos) << m;  // 0.9 / 505 us
+  }
+  EXPECT_NE(format_bus_load(c, bus_load_report(c)).find("1000000 / 2000000 (data phase)"),
+            std::string::npos);
 }
 
 TEST(CanBusLoad, BroadcastCarriesOnePointFiveKilohertz) {
   // Issue 15's target: 1.5 kHz, <= 90 % cyclic (85.5 %), <= 95 % with events (91.5 %).
   CanConfig c = default_can_config();
   c.sync_period_ns = 666'667;
-  c.rpdo_layout = fw::RpdoLayoutKind::kBroadcast;
+  c.bus_layout = fw::BusLayout::kBroadcast;
   const fw::LayoutLoad r = require_bus_load_fits(c);
   EXPECT_NEAR(r.cyclic_load, 570e-6 * 1e9 / 666'667, 1e-9);
   EXPECT_NEAR(r.total_load, 570e-6 * 1e9 / 666'667 + 0.06, 1e-9);

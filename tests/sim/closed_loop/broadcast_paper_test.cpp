@@ -60,9 +60,9 @@ struct PaperRun {
   std::array<bool, 4> enabled_seen{};  // Operation enabled seen in a statusword per drive
 };
 
-PaperRun run_paper(fw::RpdoLayoutKind layout) {
+PaperRun run_paper(fw::BusLayout layout) {
   drivers::CanConfig can = drivers::load_can_config_file(robot().path);
-  can.rpdo_layout = layout;
+  can.bus_layout = layout;
   InProcessCanRig rig(robot().model, robot().plant, can, 4096);
   RigClock clock(rig);
   RigWaiter waiter(rig);
@@ -72,11 +72,28 @@ PaperRun run_paper(fw::RpdoLayoutKind layout) {
   control::Executor ex(robot().model, robot().control, ec, *drives);
 
   PaperRun r;
-  const bool broadcast = layout == fw::RpdoLayoutKind::kBroadcast;
+  const bool broadcast = layout == fw::BusLayout::kBroadcast;
+  const bool fd = layout == fw::BusLayout::kFd;
   auto watch = [&] {
     fw::CanFrame f;
     while (rig.monitor_bus().receive(f) == drivers::BusStatus::kOk) {
-      if (broadcast && f.id == fw::kBroadcastRpdoCobId) {
+      // CAN FD frames in the fd layout only, and there for the PDOs only: the RPDO, TPDO1 and
+      // TPDO2 (60FDh digital inputs); SYNC, NMT, heartbeat, EMCY, SDO stay classic.
+      const bool pdo = f.id == fw::kBroadcastRpdoCobId || (f.id >= 0x181 && f.id <= 0x184) ||
+                       (f.id >= 0x281 && f.id <= 0x284);
+      if (f.fd != (fd && pdo)) ++r.wrong_frames;
+      if (fd && f.id == fw::kBroadcastRpdoCobId) {
+        const auto c = fw::decode_fd_commands(f, 4);
+        if (!c || f.dlc != 16) {
+          ++r.wrong_frames;
+          continue;
+        }
+        for (int i = 0; i < 4; ++i)
+          r.max_wire_torque = std::max(
+              r.max_wire_torque,
+              std::abs(fw::per_mille_to_nm(c->command[static_cast<std::size_t>(i)].target_torque,
+                                           can.drives[static_cast<std::size_t>(i)].rated_torque)));
+      } else if (broadcast && f.id == fw::kBroadcastRpdoCobId) {
         const auto t = fw::decode_broadcast_torques(f);
         if (!t || t->drives != 4) {
           ++r.wrong_frames;
@@ -88,7 +105,7 @@ PaperRun run_paper(fw::RpdoLayoutKind layout) {
               std::abs(fw::per_mille_to_nm(t->torque[static_cast<std::size_t>(i)],
                                            can.drives[static_cast<std::size_t>(i)].rated_torque)));
       } else if (f.id >= 0x201 && f.id <= 0x204) {
-        if (broadcast != (f.dlc == 2)) ++r.wrong_frames;  // broadcast: controlword alone
+        if (fd || broadcast != (f.dlc == 2)) ++r.wrong_frames;  // broadcast: controlword alone
         if (!broadcast && f.dlc == 4) {
           const auto c = fw::decode_rpdo1(f);
           r.max_wire_torque = std::max(
@@ -149,8 +166,8 @@ PaperRun run_paper(fw::RpdoLayoutKind layout) {
 }
 
 TEST(BroadcastLayoutOnTheRig, PaperProgramTracksAsThePerDriveLayout) {
-  const PaperRun per_drive = run_paper(fw::RpdoLayoutKind::kPerDrive);
-  const PaperRun broadcast = run_paper(fw::RpdoLayoutKind::kBroadcast);
+  const PaperRun per_drive = run_paper(fw::BusLayout::kPerDrive);
+  const PaperRun broadcast = run_paper(fw::BusLayout::kBroadcast);
   ASSERT_TRUE(per_drive.finished) << per_drive.why;
   ASSERT_TRUE(broadcast.finished) << broadcast.why;
   // The loop tracks at all (README: 0.43 mm with the shipped configuration) ...
@@ -173,6 +190,27 @@ TEST(BroadcastLayoutOnTheRig, PaperProgramTracksAsThePerDriveLayout) {
       "(per-drive / broadcast)\n",
       1e3 * per_drive.max_error, 1e3 * broadcast.max_error, 1e3 * per_drive.rms_error,
       1e3 * broadcast.rms_error);
+}
+
+// The CAN FD layout (one FD RPDO with every controlword + torque, FD TPDO1s): the transport
+// changes, the tracking does not.
+TEST(FdLayoutOnTheRig, PaperProgramTracksAsThePerDriveLayout) {
+  const PaperRun per_drive = run_paper(fw::BusLayout::kPerDrive);
+  const PaperRun fd = run_paper(fw::BusLayout::kFd);
+  ASSERT_TRUE(per_drive.finished) << per_drive.why;
+  ASSERT_TRUE(fd.finished) << fd.why;
+  EXPECT_LT(fd.max_error, 1e-3);
+  EXPECT_NEAR(fd.max_error, per_drive.max_error, 0.05 * per_drive.max_error);
+  EXPECT_NEAR(fd.rms_error, per_drive.rms_error, 0.05 * per_drive.rms_error);
+  EXPECT_EQ(fd.wrong_frames, 0);
+  EXPECT_LE(fd.max_wire_torque, robot().safety.torque.max + 1e-9);
+  EXPECT_GT(fd.max_wire_torque, 1.0);
+  for (int i = 0; i < 4; ++i) EXPECT_TRUE(fd.enabled_seen[static_cast<std::size_t>(i)]) << i;
+  EXPECT_EQ(fd.statusword_frames, 0);
+  std::printf(
+      "paper program on the CAN rig: max |e| %.4f / %.4f mm, RMS %.4f / %.4f mm "
+      "(per-drive / fd)\n",
+      1e3 * per_drive.max_error, 1e3 * fd.max_error, 1e3 * per_drive.rms_error, 1e3 * fd.rms_error);
 }
 
 }  // namespace
