@@ -37,14 +37,33 @@ function(dualv_add_subdirectory_if_present dir)
   endif()
 endfunction()
 
-# dualv_add_library(name SOURCES ... LIBS ...): a layer library whose headers are
-# included from the repository root ("control/model/kinematics.hpp").
+# dualv_add_library(name ROOT path... SOURCES ... [LIBS ...] [PRIVATE_LIBS ...]): a layer
+# library with an include root of its own (docs/architecture.md "Layers"): each ROOT path
+# (a folder or a header, relative to the repository) is mapped by a symbolic link to
+# ${PROJECT_BINARY_DIR}/include/<name>/<path>, and that folder, not the repository root, is on
+# the include path of the library and of whatever links it. So "control/model/kinematics.hpp"
+# resolves in dualv_model and the layers that link it, and an include of a layer the library
+# does not link fails to compile ("No such file or directory"). LIBS are the libraries its
+# public headers include (PUBLIC); PRIVATE_LIBS those only its sources include.
 function(dualv_add_library name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS" ${ARGN})
+  cmake_parse_arguments(ARG "" "" "ROOT;SOURCES;LIBS;PRIVATE_LIBS" ${ARGN})
+  if(NOT ARG_ROOT)
+    message(FATAL_ERROR "dualv_add_library(${name}): give ROOT, the folders or headers of the "
+                        "repository its headers are included by (e.g. ROOT control/model)")
+  endif()
+  set(root ${PROJECT_BINARY_DIR}/include/${name})
+  file(REMOVE_RECURSE ${root})  # removes the links, never what they point to
+  foreach(path ${ARG_ROOT})
+    if(NOT EXISTS ${PROJECT_SOURCE_DIR}/${path})
+      message(FATAL_ERROR "dualv_add_library(${name}): ROOT ${path} is not in ${PROJECT_SOURCE_DIR}")
+    endif()
+    get_filename_component(parent ${root}/${path} DIRECTORY)
+    file(MAKE_DIRECTORY ${parent})
+    file(CREATE_LINK ${PROJECT_SOURCE_DIR}/${path} ${root}/${path} SYMBOLIC)
+  endforeach()
   add_library(${name} STATIC ${ARG_SOURCES})
-  target_include_directories(${name} PUBLIC ${PROJECT_SOURCE_DIR})
-  target_include_directories(${name} SYSTEM PUBLIC ${PROJECT_BINARY_DIR}/generated)
-  target_link_libraries(${name} PUBLIC ${ARG_LIBS} PRIVATE dualv_warnings)
+  target_include_directories(${name} PUBLIC ${root})
+  target_link_libraries(${name} PUBLIC ${ARG_LIBS} PRIVATE ${ARG_PRIVATE_LIBS} dualv_warnings)
 endfunction()
 
 # dualv_optimize_hot_path(target): for the numeric hot paths (the model's kinematics and
@@ -59,6 +78,8 @@ function(dualv_add_test name)
   cmake_parse_arguments(ARG "" "" "SOURCES;LIBS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gmock GTest::gtest_main dualv_warnings)
+  # Tests see the whole repository (tests/support/..., any layer); the layers do not.
+  target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR})
   target_compile_definitions(${name} PRIVATE DUALV_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
   gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60)
   # Labels go on the directory (every test in it): gtest_discover_tests' PROPERTIES would

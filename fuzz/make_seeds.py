@@ -100,3 +100,19 @@ write("bus_attack", "forged_emcy", bytes(30) + bytes([0x01]) + frame(0x082, [0x1
 write("bus_attack", "forged_tpdo", bytes(30) + bytes([0x03]) + frame(0x181, [0x27, 0x06, 0, 0, 0, 0x40]) * 3 + bytes(20))
 write("bus_attack", "nmt_stop_all", bytes(30) + bytes([0x01]) + frame(0x000, [0x02, 0x00]) + bytes(20))
 write("bus_attack", "sdo_write_max_torque", bytes(30) + bytes([0x01]) + frame(0x601, [0x2B, 0x72, 0x60, 0x00, 0xFF, 0xFF]) + bytes(20))
+
+# ---- eds: the shipped EDS (CiA 306) and damaged copies ---------------------------------------
+with open(os.path.join(REPO, "config", "eds", "dualv-emulated-drive.eds"), "rb") as f:
+    eds = f.read()
+write("eds", "dualv-emulated-drive.eds", eds)
+write("eds", "truncated_half.eds", eds[: len(eds) // 2])
+# 60C2h without sub-index 2, SubNumber consistent (eds-check and sim --eds refuse it).
+start = eds.index(b"[60C2sub2]\n")
+no_sub = eds[:start] + eds[eds.index(b"\n[", start) + 1:]
+write("eds", "record_without_sub2.eds",
+      no_sub.replace(b"[60C2]\nParameterName=Interpolation time period\nObjectType=0x9\nSubNumber=3",
+                     b"[60C2]\nParameterName=Interpolation time period\nObjectType=0x9\nSubNumber=2"))
+write("eds", "nodeid_default.eds",
+      b"[MandatoryObjects]\nSupportedObjects=1\n1=0x1014\n\n[1014]\nParameterName=COB-ID EMCY\n"
+      b"ObjectType=0x7\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NODEID+0x80\nPDOMapping=0\n")
+write("eds", "duplicate_key.eds", eds.replace(b"AccessType=rw\n", b"AccessType=rw\nAccessType=ro\n", 1))

@@ -3,6 +3,9 @@
 # one that goes up (a lower layer including a higher one, or sim including more of drivers
 # than the bus interface). Run from anywhere: scripts/check-layers.sh [-q]
 #   -q  only the violations (no edge table)
+# The build enforces the same rules (each layer library compiles with its own include root,
+# cmake/DualvHelpers.cmake dualv_add_library; ctest layer_includes); this script also sees a
+# header that no library source includes, and prints the edges.
 #
 # Layers, bottom to top, and what each may include (besides itself and the C++/system
 # headers):

@@ -19,7 +19,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-ALL_TARGETS=(firmware_if_decoders sdo_client command_verifier robot_config program bus_attack)
+ALL_TARGETS=(firmware_if_decoders sdo_client command_verifier robot_config program bus_attack eds)
 time_s=""
 runs=""
 keep_going=0

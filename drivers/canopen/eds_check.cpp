@@ -84,6 +84,21 @@ struct Checker {
       r.problems.push_back(fmt::format("node {}: {}", node, text));
   }
 
+  // (index, sub) absent from an EDS that has the object: the EDS describes a record without
+  // a sub-index the configuration uses. A problem whatever the object's policy (an optional
+  // object may be absent as a whole, not in part), named by file, line, object and sub-index.
+  // False when the object itself is absent.
+  bool sub_index_missing(std::uint16_t index, std::uint8_t sub, const std::string& entry,
+                         const std::string& role) {
+    const eds::EdsObject* o = eds.object(index);
+    if (o == nullptr) return false;
+    r.problems.push_back(fmt::format(
+        "node {}: {}:{}: object {:04X}h has no sub-index {} ({}, {}): the EDS describes the "
+        "object without an entry the configuration needs",
+        node, eds.file, o->line, index, sub, entry, role));
+    return true;
+  }
+
   bool skipping(const ConfigWrite& w) const {
     return w.object != nullptr && skipped_keys.count(w.object) != 0;
   }
@@ -92,6 +107,10 @@ struct Checker {
   const eds::EdsEntry* find(const fw::OdEntry& want, const ConfigWrite* w, const char* role) {
     const eds::EdsEntry* e = eds.entry(want.index, want.subindex);
     if (e == nullptr) {
+      const std::string why = w != nullptr && w->object != nullptr
+                                  ? fmt::format("{}: can.objects.{}", role, w->object)
+                                  : std::string(role);
+      if (sub_index_missing(want.index, want.subindex, describe(want), why)) return nullptr;
       missing(w, fmt::format("{} is not in the EDS ({})", describe(want), role));
       return nullptr;
     }
@@ -124,8 +143,10 @@ struct Checker {
     const char* dir = rpdo ? "an RPDO" : "a TPDO";
     const eds::EdsEntry* e = eds.entry(m.index, m.subindex);
     if (e == nullptr) {
-      missing(&w, fmt::format("{} (mapped into {} at {:04X}h) is not in the EDS",
-                              what(m.index, m.subindex), dir, w.entry.index));
+      if (!sub_index_missing(m.index, m.subindex, what(m.index, m.subindex),
+                             fmt::format("mapped into {} at {:04X}h", dir, w.entry.index)))
+        missing(&w, fmt::format("{} (mapped into {} at {:04X}h) is not in the EDS",
+                                what(m.index, m.subindex), dir, w.entry.index));
       return;
     }
     if (const auto k = known_entry(m.index, m.subindex); k && e->type() != k->type)

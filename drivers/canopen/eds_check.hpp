@@ -9,7 +9,10 @@
 //   - every object the PDO mappings carry is there, PDO-mappable, of the mapped size, writable
 //     when an RPDO carries it (6040h, 6071h) and readable when a TPDO does (6041h, 6064h, 60FDh);
 //   - a non-mandatory object (can.objects) the drive lacks is skipped when its policy is
-//     optional, a problem when required, with the safety consequence of skipping it.
+//     optional, a problem when required, with the safety consequence of skipping it;
+//   - an object the EDS has without a sub-index any of the above needs is a problem whatever
+//     its policy (an optional object is absent as a whole or present whole), named
+//     file:line (the object's section), object and sub-index.
 // Set-up code (allocates).
 #include <string>
 #include <vector>

@@ -34,8 +34,16 @@ std::vector<std::string> differences(const eds::Eds& e, const ObjectDictionary& 
     const fw::OdEntry& o = od.entry(static_cast<int>(slot));
     const eds::EdsEntry* x = e.entry(o.index, o.subindex);
     if (x == nullptr) {
-      d.push_back(fmt::format("{:04X}h sub{} ({}): in the emulator, not in {}", o.index, o.subindex,
-                              o.name, e.file));
+      // An object the EDS has, but not whole: refused rather than emulated with the
+      // emulator's own entry (a drive is built from its EDS, not completed by defaults).
+      if (const eds::EdsObject* obj = e.object(o.index))
+        d.push_back(
+            fmt::format("{}:{}: object {:04X}h has no sub-index {} ({}): the emulated "
+                        "drive needs it; describe the object whole in the EDS",
+                        e.file, obj->line, o.index, o.subindex, o.name));
+      else
+        d.push_back(fmt::format("{:04X}h sub{} ({}): in the emulator, not in {}", o.index,
+                                o.subindex, o.name, e.file));
       continue;
     }
     const auto where =

@@ -31,7 +31,9 @@ EdsDrive drive_from_eds(const fw::eds::Eds& eds, std::uint32_t vendor_id,
 
 // Every disagreement between `eds` and a built dictionary, both ways: an entry in one and
 // not in the other, a different data type, access or PDO mapping. Each message names the
-// entry and the EDS line. Empty when they agree.
+// entry and the EDS line; an object the EDS has without one of the dictionary's sub-indices
+// is named "FILE:LINE: object IIIIh has no sub-index S" (`dualv sim --eds` refuses it rather
+// than emulate the missing entry with the emulator's own). Empty when they agree.
 std::vector<std::string> differences(const fw::eds::Eds& eds, const ObjectDictionary& od);
 
 }  // namespace dualv::sim::canopen

@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -38,6 +40,25 @@ eds::EdsEntry& at(eds::Eds& e, std::uint16_t index, std::uint8_t sub) {
   throw std::logic_error("no such entry in the test EDS");
 }
 
+// The shipped EDS as text, without the section [IIIIsubS] of object `index` (and SubNumber one
+// less, so the file stays consistent): a vendor's record that lacks that one sub-index.
+// `object_line` is set to the line of the object's own section [IIII], counted here.
+std::string text_without_sub_index(const std::string& index, int sub, int& object_line) {
+  std::ifstream in(std::string(DUALV_SOURCE_DIR) + "/config/eds/dualv-emulated-drive.eds");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t s = text.find("[" + index + "sub" + std::to_string(sub) + "]\n");
+  const std::size_t next = text.find("\n[", s);
+  if (s == std::string::npos || next == std::string::npos) throw std::logic_error("no section");
+  text.erase(s, next + 1 - s);
+  const std::size_t o = text.find("[" + index + "]\n");
+  const std::size_t n = text.find("SubNumber=", o);
+  const std::size_t end = text.find('\n', n);
+  const int count = std::stoi(text.substr(n + 10, end - n - 10));
+  text.replace(n, end - n, "SubNumber=" + std::to_string(count - 1));
+  object_line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + o, '\n'));
+  return text;
+}
+
 bool has(const std::vector<std::string>& lines, const std::string& s) {
   return std::any_of(lines.begin(), lines.end(),
                      [&s](const std::string& l) { return l.find(s) != std::string::npos; });
@@ -64,6 +85,37 @@ TEST(EdsCheck, OptionalObjectMissingIsSkipped) {
       "node 2: interpolation_period skipped (optional): 60C2h sub1 (interpolation time period "
       "value) is not in the EDS (boot writes it)");
   EXPECT_TRUE(has(r.notes, "node 2: 60C2h absent"));
+}
+
+// An object the EDS has, lacking one sub-index boot writes: a problem naming the file, the
+// object's line, the object and the sub-index, even though 60C2h is optional (an optional
+// object is absent as a whole, never in part), not a skip.
+TEST(EdsCheck, ARecordWithoutOneSubIndexIsAProblemEvenWhenOptional) {
+  int line = 0;
+  const eds::Eds e = eds::parse_eds(text_without_sub_index("60C2", 2, line), "vendor.eds");
+  ASSERT_NE(e.object(0x60C2), nullptr);
+  ASSERT_EQ(e.entry(0x60C2, 2), nullptr);
+  const CanConfig c = config();
+  ASSERT_EQ(c.drives[0].objects.interpolation_period, ObjectPolicy::kOptional);
+  const EdsCheckReport r = check_eds(e, c, 0);
+  EXPECT_FALSE(r.can_boot());
+  EXPECT_TRUE(r.skipped.empty()) << ::testing::PrintToString(r.skipped);
+  ASSERT_EQ(r.problems.size(), 1u) << ::testing::PrintToString(r.problems);
+  EXPECT_TRUE(has(r.problems, "node 1: vendor.eds:" + std::to_string(line) +
+                                  ": object 60C2h has no sub-index 2 ("))
+      << r.problems[0];
+  EXPECT_TRUE(has(r.problems, "can.objects.interpolation_period")) << r.problems[0];
+}
+
+// The same for a PDO mapping record: TPDO1's mapping 1A00h without its second entry.
+TEST(EdsCheck, AMappingRecordWithoutOneSubIndexIsAProblem) {
+  int line = 0;
+  const eds::Eds e = eds::parse_eds(text_without_sub_index("1A00", 2, line), "vendor.eds");
+  const EdsCheckReport r = check_eds(e, config(), 2);
+  EXPECT_FALSE(r.can_boot());
+  EXPECT_TRUE(has(r.problems, "node 3: vendor.eds:" + std::to_string(line) +
+                                  ": object 1A00h has no sub-index 2 ("))
+      << ::testing::PrintToString(r.problems);
 }
 
 TEST(EdsCheck, RequiredObjectMissingIsAProblem) {

@@ -9,6 +9,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <string>
 #include <vector>
@@ -123,6 +125,36 @@ TEST_F(EdsEmulator, AnEdsWithout60C2GivesADriveWithout60C2) {
   EXPECT_EQ(abort_code(sdo(node, fw::sdo_upload_initiate(node, 0x60C2, 1))), 0x06020000u);
   EXPECT_EQ(abort_code(sdo(node, fw::sdo_upload_initiate(node, 0x60C2, 0))), 0x06020000u);
   EXPECT_EQ(read(node, fw::od::kDeviceType), 0x00020192u);
+}
+
+// An EDS whose 60C2h record lacks sub-index 2 (SubNumber consistent): the drive has 60C2h, so
+// the emulator would have to make up the missing entry; `dualv sim --eds` refuses it instead,
+// naming the file, the object's line (counted here), the object and the sub-index.
+TEST(EmulatedDriveEds, ARecordWithoutOneSubIndexIsRefusedNotEmulated) {
+  std::ifstream in(shipped_eds());
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t s = text.find("[60C2sub2]\n");
+  ASSERT_NE(s, std::string::npos);
+  text.erase(s, text.find("\n[", s) + 1 - s);
+  const std::size_t o = text.find("[60C2]\n");
+  const std::size_t n = text.find("SubNumber=3", o);
+  ASSERT_NE(n, std::string::npos);
+  text.replace(n, 11, "SubNumber=2");
+  const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + o, '\n'));
+  const eds::Eds e = eds::parse_eds(text, "vendor.eds");
+
+  const DriveEmulatorConfig cfg = shipped_emulator_config();
+  EXPECT_TRUE(canopen::drive_from_eds(e, 0, 0).absent_objects.empty());  // 60C2h is there
+  drivers::InProcessHub hub(2, 64);
+  Plant plant(test::dual_v(),
+              emulator_plant_config(load_plant_config_file(test::config_file()), cfg));
+  DriveEmulator emu(hub.endpoint(0), plant, cfg);
+  const std::vector<std::string> d = canopen::differences(e, emu.dictionary(0));
+  ASSERT_EQ(d.size(), 1u) << ::testing::PrintToString(d);
+  EXPECT_EQ(
+      d[0].rfind("vendor.eds:" + std::to_string(line) + ": object 60C2h has no sub-index 2 (", 0),
+      0u)
+      << d[0];
 }
 
 TEST(EmulatedDriveEds, AnEdsWithoutPositionActualIsRefused) {

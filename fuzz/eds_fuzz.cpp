@@ -1,0 +1,128 @@
+// The EDS reader (firmware_if/eds.hpp, CiA 306) on any text: the input is the file (the
+// shipped config/eds/dualv-emulated-drive.eds and damaged copies are the seeds), then what
+// `dualv eds-check` (drivers/canopen/eds_check.hpp, against the shipped `can:` section) and
+// `dualv sim --eds` (sim/canopen/eds_dictionary.hpp) do with an EDS that parses. A refusal is an
+// EdsError (set-up code) naming "fuzz.eds:LINE" with a line of the input; everything else must
+// not crash, leak, hang or hit undefined behaviour, and an EDS that parses must hold what
+// eds.hpp promises, checked against the input text itself:
+//   - objects in strictly ascending index order, each at a line of the input that is the
+//     section header [IIII] of its index; entries in strictly ascending sub-index order, of
+//     their object's index; a VAR is its own sub-index 0, an ARRAY/RECORD has SubNumber
+//     entries;
+//   - every object in exactly one of [MandatoryObjects], [OptionalObjects],
+//     [ManufacturerObjects], and every listed index an object; object()/entry() find each;
+//   - a DefaultValue read as a number fits its entry's data type;
+//   - eds-check's report names a node in each line; the objects `dualv sim --eds` leaves out
+//     are exactly firmware_if's objects the EDS lacks.
+#include <algorithm>
+#include <cstdint>
+#include <cstdlib>
+#include <exception>
+#include <string>
+#include <string_view>
+
+#include "drivers/canopen/eds_check.hpp"
+#include "drivers/canopen_config.hpp"
+#include "firmware_if/eds.hpp"
+#include "firmware_if/object_dictionary.hpp"
+#include "fuzz/check.hpp"
+#include "sim/canopen/eds_dictionary.hpp"
+
+namespace {
+
+namespace eds = dualv::fw::eds;
+namespace fw = dualv::fw;
+
+// Line `n` (1-based) of `text`, without its line ending; "" past the end.
+std::string_view line_of(std::string_view text, int n) {
+  std::size_t start = 0;
+  for (int i = 1; i < n; ++i) {
+    const std::size_t nl = text.find('\n', start);
+    if (nl == std::string_view::npos) return {};
+    start = nl + 1;
+  }
+  std::string_view l = text.substr(start, text.find('\n', start) - start);
+  while (!l.empty() && (l.back() == '\r' || l.back() == ' ' || l.back() == '\t'))
+    l.remove_suffix(1);
+  while (!l.empty() && (l.front() == ' ' || l.front() == '\t')) l.remove_prefix(1);
+  return l;
+}
+
+// The index of a section header "[IIII]" (hex), or -1.
+long section_index(std::string_view l) {
+  if (l.size() < 3 || l.front() != '[' || l.back() != ']') return -1;
+  const std::string hex(l.substr(1, l.size() - 2));
+  if (hex.empty() || hex.find_first_not_of("0123456789abcdefABCDEF") != std::string::npos)
+    return -1;
+  return hex.size() > 8 ? -1 : static_cast<long>(std::strtoul(hex.c_str(), nullptr, 16));
+}
+
+int lines_in(std::string_view text) {
+  return 1 + static_cast<int>(std::count(text.begin(), text.end(), '\n'));
+}
+
+const dualv::drivers::CanConfig& shipped_can() {
+  static const dualv::drivers::CanConfig c =
+      dualv::drivers::load_can_config_file(std::string(DUALV_SOURCE_DIR) + "/config/dualv.yaml");
+  return c;
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  const std::string_view text(reinterpret_cast<const char*>(data), size);
+  eds::Eds e;
+  try {
+    e = eds::parse_eds(text, "fuzz.eds");
+  } catch (const eds::EdsError& x) {
+    FUZZ_CHECK(x.file() == "fuzz.eds");
+    FUZZ_CHECK(x.line() >= 0 && x.line() <= lines_in(text) + 1);
+    FUZZ_CHECK(std::string_view(x.what()).substr(0, 9) == "fuzz.eds:");
+    return 0;
+  }
+
+  long previous = -1;
+  for (const eds::EdsObject& o : e.objects) {
+    FUZZ_CHECK(static_cast<long>(o.index) > previous);
+    previous = o.index;
+    FUZZ_CHECK(section_index(line_of(text, o.line)) == static_cast<long>(o.index));
+    FUZZ_CHECK(e.object(o.index) == &o);
+    int listed = 0;
+    for (const auto* list : {&e.mandatory, &e.optional, &e.manufacturer})
+      listed += static_cast<int>(std::count(list->begin(), list->end(), o.index));
+    FUZZ_CHECK(listed == 1);
+    if (o.object_type == eds::ObjectType::kArray || o.object_type == eds::ObjectType::kRecord)
+      FUZZ_CHECK(o.entries.size() == o.sub_number);
+    else
+      FUZZ_CHECK(o.entries.size() == 1 && o.entries[0].subindex == 0);
+    int sub = -1;
+    for (const eds::EdsEntry& x : o.entries) {
+      FUZZ_CHECK(x.index == o.index && static_cast<int>(x.subindex) > sub);
+      sub = x.subindex;
+      FUZZ_CHECK(e.entry(x.index, x.subindex) == &x);
+      FUZZ_CHECK(x.line >= 1 && x.line <= lines_in(text));
+      const auto t = x.type();
+      const auto v = eds::default_value(x, 1);
+      if (t && v && fw::size_of(*t) < 4) FUZZ_CHECK(*v >> (8 * fw::size_of(*t)) == 0);
+    }
+  }
+  for (const auto* list : {&e.mandatory, &e.optional, &e.manufacturer})
+    for (std::uint16_t index : *list) FUZZ_CHECK(e.object(index) != nullptr);
+
+  // What eds-check and `dualv sim --eds` make of it.
+  const dualv::drivers::CanConfig& can = shipped_can();
+  for (int i = 0; i < can.size(); ++i) {
+    const auto r = dualv::drivers::canopen::check_eds(e, can, i);
+    FUZZ_CHECK(r.node == can.drives[static_cast<std::size_t>(i)].node_id);
+    for (const auto* lines : {&r.problems, &r.skipped, &r.notes})
+      for (const std::string& l : *lines) FUZZ_CHECK(l.rfind("node ", 0) == 0);
+  }
+  const auto absent = dualv::sim::canopen::objects_absent_from(e);
+  for (const fw::OdEntry& entry : fw::od::kAll) {
+    const bool out = std::find(absent.begin(), absent.end(), entry.index) != absent.end();
+    FUZZ_CHECK(out ==
+               std::none_of(e.objects.begin(), e.objects.end(),
+                            [&](const eds::EdsObject& o) { return o.index == entry.index; }));
+  }
+  return 0;
+}
