@@ -58,7 +58,9 @@ int main() {
     }
   }
   std::sort(ns.begin(), ns.end());
-  auto pct = [&](double p) { return ns[static_cast<std::size_t>(p * (ns.size() - 1))]; };
+  auto pct = [&](double p) {
+    return ns[static_cast<std::size_t>(p * static_cast<double>(ns.size() - 1))];
+  };
   fmt::print(
       "controller cycle (read + estimate + sample + control + projection + safety + write), "
       "thread CPU time, {} cycles\n",

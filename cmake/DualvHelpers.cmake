@@ -1,8 +1,15 @@
 # Shared build settings for every dualv target.
 
 add_library(dualv_warnings INTERFACE)
-# -Wshadow on the project's own code (issue 14); the lcm-gen headers are system headers.
-target_compile_options(dualv_warnings INTERFACE -Wall -Wextra -Wpedantic -Wshadow)
+# -Wshadow and -Wconversion on the project's own code (issue 14); the lcm-gen headers are
+# system headers. -Wsign-conversion only on the targets that say DUALV_SIGN_CONVERSION ON
+# (dualv_sign_conversion below: the wire and the limits, firmware_if and safety); elsewhere
+# int indices into std::array / Eigen still warn, and clang's -Wconversion would include it,
+# so it is turned off by name there.
+target_compile_options(
+  dualv_warnings
+  INTERFACE -Wall -Wextra -Wpedantic -Wshadow -Wconversion
+            $<IF:$<BOOL:$<TARGET_PROPERTY:DUALV_SIGN_CONVERSION>>,-Wsign-conversion,-Wno-sign-conversion>)
 if(DUALV_WERROR)
   target_compile_options(dualv_warnings INTERFACE -Werror)
 endif()
@@ -30,6 +37,13 @@ if(DUALV_FUZZ)
                       -fno-omit-frame-pointer)
   add_link_options(-fsanitize=address,undefined)
 endif()
+
+# dualv_sign_conversion(target ...): -Wsign-conversion on these targets too (with -Werror
+# when DUALV_WERROR): every implicit signed/unsigned conversion in their own sources is an
+# error.
+function(dualv_sign_conversion)
+  set_target_properties(${ARGN} PROPERTIES DUALV_SIGN_CONVERSION ON)
+endfunction()
 
 function(dualv_add_subdirectory_if_present dir)
   if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/${dir}/CMakeLists.txt)

@@ -118,7 +118,9 @@ struct CanConfig {
   std::vector<CanDriveConfig> drives;  // drive i = joint i; 1..drivers::kMaxDrives
 
   int size() const noexcept { return static_cast<int>(drives.size()); }
-  double cycle_hz() const noexcept { return sync_period_ns ? 1e9 / sync_period_ns : 0.0; }
+  double cycle_hz() const noexcept {
+    return sync_period_ns ? 1e9 / static_cast<double>(sync_period_ns) : 0.0;
+  }
   std::uint8_t sync_bytes() const noexcept { return sync_counter_overflow ? 1 : 0; }
   // Index of the drive with `node` (0..n-1), or -1.
   int drive_of_node(std::uint8_t node) const noexcept {

@@ -202,7 +202,7 @@ CycleStatus ControlCycle::step(drivers::ActuatorSet& io, CycleRecord& rec) noexc
       // Target torque 0 until every drive is enabled: enabling never moves the robot.
       rec.command.request = drivers::DriveRequest::kEnable;
       ++enabling_cycles_;
-      if (enabling_cycles_ * config_.period > config_.enable_timeout)
+      if (static_cast<double>(enabling_cycles_) * config_.period > config_.enable_timeout)
         rec.status = CycleStatus::kEnableTimeout;
     }
   }

@@ -134,7 +134,8 @@ TEST(RobotConfig, TruncatedFileIsRefusedAtEveryLine) {
   EXPECT_GT(cuts, 100);
   // The cut points, mid-line: 50 %, 75 % and 99 % of the bytes.
   for (double f : {0.5, 0.75, 0.99}) {
-    const std::string cut = text.substr(0, static_cast<std::size_t>(f * text.size()));
+    const std::string cut =
+        text.substr(0, static_cast<std::size_t>(f * static_cast<double>(text.size())));
     if (holds_a_key(text.substr(cut.size()))) {
       EXPECT_FALSE(problems_of_text(cut).empty()) << f;
     }

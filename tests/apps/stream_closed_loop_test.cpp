@@ -172,7 +172,7 @@ TEST(StreamClosedLoop, TracksAStreamedCircleThenTheWatchdogStopsItWhenTheStreamS
   std::int64_t last_setpoint_cycle = -1;
   const RunResult r = rig.run([&](std::int64_t cycle, StreamRun& s) {
     if (cycle > last_publish || cycle % kEvery != 0) return;
-    s.publish(s.signed_setpoint(circle(centre, cycle * 1e-3)));
+    s.publish(s.signed_setpoint(circle(centre, static_cast<double>(cycle) * 1e-3)));
     last_setpoint_cycle = cycle;
   });
   ASSERT_TRUE(r.stream.streamed);
@@ -247,7 +247,7 @@ TEST(StreamClosedLoop, TracksAStreamedCircleThenTheWatchdogStopsItWhenTheStreamS
         << "cycle " << streaming[k]->cycle;
   const M& last = *streaming.back();
   EXPECT_NEAR(last.stream_age, timeout - 1e-3, 1e-12);  // the next cycle's 0.1 s trips SS1
-  const model::Pose sent = circle(centre, last_setpoint_cycle * 1e-3);
+  const model::Pose sent = circle(centre, static_cast<double>(last_setpoint_cycle) * 1e-3);
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(last.stream_target[k], sent[k], 1e-12);
   EXPECT_EQ(static_cast<std::uint64_t>(last.stream_accepted), r.stream.accepted);
   EXPECT_EQ(last.stream_refused, 0);
@@ -274,7 +274,7 @@ TEST(StreamClosedLoop, RefusedSetpointsNeverChangeXdAndASignedStopEndsTheStreamW
       return;
     }
     if (cycle % kEvery == 0) {
-      const auto sp = s.signed_setpoint(circle(centre, cycle * 1e-3));
+      const auto sp = s.signed_setpoint(circle(centre, static_cast<double>(cycle) * 1e-3));
       s.publish(sp);
       s.last_good = sp;
       s.have_good = true;

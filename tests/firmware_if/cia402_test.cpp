@@ -87,7 +87,8 @@ TEST(Cia402, StatuswordGoldenAndInvalid) {
   EXPECT_EQ(decode_statusword(0x021F)->state, S::kFaultReactionActive);
   EXPECT_EQ(decode_statusword(0x0218)->state, S::kFault);
   // No row: bit 5 clear with 0001 / 0011; bit 6 with a fault pattern; 0010 etc.
-  for (std::uint16_t bad : {0x0001, 0x0003, 0x0048, 0x0002, 0x0004, 0x0006, 0x0041, 0x0067}) {
+  for (const std::uint16_t bad : std::initializer_list<std::uint16_t>{
+           0x0001, 0x0003, 0x0048, 0x0002, 0x0004, 0x0006, 0x0041, 0x0067}) {
     EXPECT_EQ(decode_statusword(bad).error(), Error::kBadValue) << std::hex << bad;
   }
   // The emulator's statusword for each state decodes back to that state.

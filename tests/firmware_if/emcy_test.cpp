@@ -38,7 +38,8 @@ TEST(Emcy, ResetClears) {
 }
 
 TEST(Emcy, RoundTrip) {
-  for (std::uint16_t code : {0x0000, 0x1000, 0x2310, 0x5000, 0x8250, 0xFF00, 0xFFFF}) {
+  for (const std::uint16_t code : std::initializer_list<std::uint16_t>{
+           0x0000, 0x1000, 0x2310, 0x5000, 0x8250, 0xFF00, 0xFFFF}) {
     Emcy e;
     e.node = 127;
     e.error_code = code;

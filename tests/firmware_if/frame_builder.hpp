@@ -1,5 +1,6 @@
 #pragma once
 // Golden frames for the firmware_if tests: written by hand, byte by byte, from CiA 301/402.
+#include <cstddef>
 #include <cstdint>
 #include <initializer_list>
 #include <ostream>
@@ -24,7 +25,8 @@ namespace dualv::fw {
 // Readable failure messages.
 inline std::ostream& operator<<(std::ostream& os, const CanFrame& f) {
   os << "id=0x" << std::hex << f.id << " dlc=" << std::dec << int(f.dlc) << " [";
-  for (int i = 0; i < f.dlc && i < 8; ++i) os << (i ? " " : "") << std::hex << int(f.data[i]);
+  for (std::size_t i = 0; i < f.dlc && i < 8; ++i)
+    os << (i ? " " : "") << std::hex << int(f.data[i]);
   return os << std::dec << "]" << (f.extended ? " ext" : "") << (f.rtr ? " rtr" : "");
 }
 inline std::ostream& operator<<(std::ostream& os, Error e) { return os << to_string(e); }

@@ -34,7 +34,7 @@ TEST(Nmt, DecodeGolden) {
 TEST(Nmt, RoundTrip) {
   for (NmtCommand c : {NmtCommand::kStart, NmtCommand::kStop, NmtCommand::kEnterPreOperational,
                        NmtCommand::kResetNode, NmtCommand::kResetCommunication}) {
-    for (std::uint8_t node : {0, 1, 4, 127}) {
+    for (const std::uint8_t node : std::initializer_list<std::uint8_t>{0, 1, 4, 127}) {
       const Result<CanFrame> f = encode_nmt(c, node);
       ASSERT_TRUE(f.ok());
       const Result<NmtMessage> m = decode_nmt(*f);

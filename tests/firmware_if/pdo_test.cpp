@@ -29,7 +29,7 @@ TEST(Pdo, MappingEntryEncoding) {
 TEST(Pdo, MappingRoundTrip) {
   std::mt19937 rng(7);
   for (int i = 0; i < 1000; ++i) {
-    const std::uint32_t v = rng();
+    const std::uint32_t v = static_cast<std::uint32_t>(rng());  // mt19937: 32-bit values
     EXPECT_EQ(encode_mapping(decode_mapping(v)), v);
   }
 }

@@ -178,7 +178,8 @@ TEST(Sdo, DecodeRequests) {
 
 TEST(Sdo, BadCommandSpecifier) {
   // cs 5 and 6 are block transfer (unsupported), 7 is undefined: both directions.
-  for (std::uint8_t b0 : {0xA0, 0xA4, 0xC0, 0xC6, 0xE0, 0xFF}) {
+  for (const std::uint8_t b0 :
+       std::initializer_list<std::uint8_t>{0xA0, 0xA4, 0xC0, 0xC6, 0xE0, 0xFF}) {
     EXPECT_EQ(decode_sdo_request(make_frame(0x601, {b0, 0, 0, 0, 0, 0, 0, 0})).error(),
               Error::kBadCommandSpecifier)
         << int(b0);
@@ -408,7 +409,7 @@ TEST(Sdo, EveryEightByteFrameDecodesOrErrs) {
   for (int b0 = 0; b0 < 256; ++b0) {
     for (int k = 0; k < 8; ++k) {
       CanFrame f = make_frame(0x601, {static_cast<std::uint8_t>(b0), 0, 0, 0, 0, 0, 0, 0});
-      for (int j = 1; j < 8; ++j) {
+      for (std::size_t j = 1; j < 8; ++j) {
         x = x * 1664525u + 1013904223u;
         f.data[j] = static_cast<std::uint8_t>(x >> 24);
       }

@@ -25,35 +25,21 @@ import argparse
 import re
 import sys
 
+from wire_check_common import (config_drives, config_bus_layout, config_torque_max, frames,
+                               read_config)
+
+TOOL = "check_broadcast_wire"
+
 
 def parse_config(path):
-    text = open(path).read()
-    drives = []
-    for m in re.finditer(r"-\s*\{([^}]*node_id[^}]*)\}", text):
-        fields = dict(re.findall(r"(\w+):\s*([-0-9.eE+]+)", m.group(1)))
-        drives.append({"node": int(fields["node_id"]), "rated": float(fields["rated_torque"]),
-                       "max": float(fields["max_torque"])})
-    if not drives:
-        raise SystemExit(f"check_broadcast_wire: no can.drives entries in {path}")
-    layout = re.search(r"\n\s+bus_layout:\s*(\w+)", text)
-    if not layout or layout.group(1) != "broadcast":
-        raise SystemExit(f"check_broadcast_wire: {path} does not say bus_layout: broadcast")
+    text = read_config(path)
+    drives = config_drives(text, path, TOOL)
+    if config_bus_layout(text) != "broadcast":
+        raise SystemExit(f"{TOOL}: {path} does not say bus_layout: broadcast")
     inhibit = re.search(r"\n\s+statusword_inhibit:\s*([0-9.]+)", text)
     if not inhibit:
-        raise SystemExit(f"check_broadcast_wire: no can.statusword_inhibit in {path}")
-    safety = text[text.index("\nsafety:"):]
-    torque = re.search(r"\n\s+torque:\s*\n\s+max:\s*([0-9.]+)", safety)
-    if not torque:
-        raise SystemExit(f"check_broadcast_wire: no safety.torque.max in {path}")
-    return drives, float(inhibit.group(1)), float(torque.group(1))
-
-
-def frames(path):
-    pat = re.compile(r"^\((\d+\.\d+)\)\s+(\S+)\s+([0-9A-Fa-f]+)#([0-9A-Fa-f]*)$")
-    for line in open(path):
-        m = pat.match(line.strip())
-        if m:
-            yield float(m.group(1)), int(m.group(3), 16), bytes.fromhex(m.group(4))
+        raise SystemExit(f"{TOOL}: no can.statusword_inhibit in {path}")
+    return drives, float(inhibit.group(1)), config_torque_max(text, path, TOOL)
 
 
 def main():

@@ -23,31 +23,23 @@ import argparse
 import re
 import sys
 
+from wire_check_common import (config_drives, config_bus_layout, config_torque_max, frames,
+                               read_config)
+
+TOOL = "check_paper_wire"
+
 # Zero-torque disable cycles after the loop ends: 3 from the machine (apps/experiment/machine.cpp
 # shutdown), 5 from the drives' shut-down before NMT pre-operational (can.on_exit).
 DISABLE_CYCLES = 3 + 5
 
 
 def parse_config(path):
-    text = open(path).read()
-    drives = []
-    for m in re.finditer(r"-\s*\{([^}]*node_id[^}]*)\}", text):
-        fields = dict(re.findall(r"(\w+):\s*([-0-9.eE+]+)", m.group(1)))
-        drives.append({
-            "node": int(fields["node_id"]),
-            "rated": float(fields["rated_torque"]),
-            "max": float(fields["max_torque"]),
-        })
-    if not drives:
-        raise SystemExit(f"check_paper_wire: no can.drives entries in {path}")
-    layout = re.search(r"\n\s+bus_layout:\s*(\w+)", text)
-    if layout and layout.group(1) != "per_drive":
-        raise SystemExit(f"check_paper_wire: bus_layout {layout.group(1)}: only per_drive is checked")
-    safety = text[text.index("\nsafety:"):]
-    torque = re.search(r"\n\s+torque:\s*\n\s+max:\s*([0-9.]+)", safety)
-    if not torque:
-        raise SystemExit(f"check_paper_wire: no safety.torque.max in {path}")
-    return drives, float(torque.group(1))
+    text = read_config(path)
+    drives = config_drives(text, path, TOOL)
+    layout = config_bus_layout(text)
+    if layout and layout != "per_drive":
+        raise SystemExit(f"{TOOL}: bus_layout {layout}: only per_drive is checked")
+    return drives, config_torque_max(text, path, TOOL)
 
 
 def parse_run_log(path):
@@ -57,14 +49,6 @@ def parse_run_log(path):
     if not loop or not bus:
         raise SystemExit(f"check_paper_wire: no 'loop:' / 'bus:' report in {path}")
     return int(loop.group(1)), int(bus.group(1)), int(bus.group(2))
-
-
-def frames(path):
-    pat = re.compile(r"^\((\d+\.\d+)\)\s+(\S+)\s+([0-9A-Fa-f]+)#([0-9A-Fa-f]*)$")
-    for line in open(path):
-        m = pat.match(line.strip())
-        if m:
-            yield float(m.group(1)), int(m.group(3), 16), bytes.fromhex(m.group(4))
 
 
 def main():

@@ -23,39 +23,23 @@ import argparse
 import re
 import sys
 
+from wire_check_common import (config_drives, config_bus_layout, config_torque_max, frames,
+                               read_config)
+
+TOOL = "check_serve_wire"
+
 
 def parse_config(path):
-    text = open(path).read()
-    drives = []
-    for m in re.finditer(r"-\s*\{([^}]*node_id[^}]*)\}", text):
-        fields = dict(re.findall(r"(\w+):\s*([-0-9.eE+]+)", m.group(1)))
-        drives.append({
-            "node": int(fields["node_id"]),
-            "rated": float(fields["rated_torque"]),
-            "max": float(fields["max_torque"]),
-        })
-    if not drives:
-        raise SystemExit(f"check_serve_wire: no can.drives entries in {path}")
-    layout = re.search(r"\n\s+bus_layout:\s*(\w+)", text)
-    if layout and layout.group(1) != "per_drive":
-        raise SystemExit(f"check_serve_wire: bus_layout {layout.group(1)}: only per_drive is checked")
+    text = read_config(path)
+    drives = config_drives(text, path, TOOL)
+    layout = config_bus_layout(text)
+    if layout and layout != "per_drive":
+        raise SystemExit(f"{TOOL}: bus_layout {layout}: only per_drive is checked")
     can = text[text.index("\ncan:"):]
     deadline = re.search(r"\n  rpdo_deadline:\s*([0-9.eE+-]+)", can)
     if not deadline or float(deadline.group(1)) <= 0:
-        raise SystemExit(f"check_serve_wire: no positive can.rpdo_deadline in {path}")
-    safety = text[text.index("\nsafety:"):]
-    torque = re.search(r"\n\s+torque:\s*\n\s+max:\s*([0-9.]+)", safety)
-    if not torque:
-        raise SystemExit(f"check_serve_wire: no safety.torque.max in {path}")
-    return drives, float(deadline.group(1)), float(torque.group(1))
-
-
-def frames(path):
-    pat = re.compile(r"^\((\d+\.\d+)\)\s+(\S+)\s+([0-9A-Fa-f]+)#([0-9A-Fa-f]*)$")
-    for line in open(path):
-        m = pat.match(line.strip())
-        if m:
-            yield float(m.group(1)), int(m.group(3), 16), bytes.fromhex(m.group(4))
+        raise SystemExit(f"{TOOL}: no positive can.rpdo_deadline in {path}")
+    return drives, float(deadline.group(1)), config_torque_max(text, path, TOOL)
 
 
 def parse_stalls(path):

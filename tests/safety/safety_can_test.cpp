@@ -263,7 +263,9 @@ TEST(SafetyCan, HostDiesAndTheDrivesStopOnTheirOwn) {
     r.rig.step(static_cast<std::uint64_t>(robot().loop.period_ns));
   EXPECT_TRUE(all_drives_torque_free(r));
   // Within the master heartbeat consumer time (1016h) at the latest.
-  EXPECT_LE(k * robot().period(), r.can.master_heartbeat_timeout_ns * 1e-9 + 0.06) << k;
+  EXPECT_LE(static_cast<double>(k) * robot().period(),
+            static_cast<double>(r.can.master_heartbeat_timeout_ns) * 1e-9 + 0.06)
+      << k;
 }
 
 TEST(SafetyCan, TwoCyclesOfDroppedFeedbackAreToleratedMoreAreSto) {

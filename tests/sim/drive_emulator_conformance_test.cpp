@@ -220,7 +220,8 @@ TEST_P(EmulatorNmt, CommandAsTheStandardSays) {
   now();
   std::vector<std::uint16_t> boot_ups;
   for (const fw::CanFrame& r : drain())
-    if (r.id >= 0x701 && r.id <= 0x704 && r.dlc == 1 && r.data[0] == 0x00) boot_ups.push_back(r.id);
+    if (r.id >= 0x701 && r.id <= 0x704 && r.dlc == 1 && r.data[0] == 0x00)
+      boot_ups.push_back(static_cast<std::uint16_t>(r.id));
   EXPECT_EQ(boot_ups, c.boot_ups);
   for (int i = 0; i < 4; ++i)
     EXPECT_EQ(emu->status(i).nmt, c.after[static_cast<std::size_t>(i)]) << "node " << i + 1;

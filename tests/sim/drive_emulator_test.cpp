@@ -372,7 +372,7 @@ TEST_F(EmulatorTest, BroadcastLayoutCarriesEveryTorque) {
   }
   send(fw::encode_nmt(fw::NmtCommand::kStart, 0));
   now();
-  for (std::uint16_t cw : {0x06, 0x07, 0x0F})
+  for (const std::uint16_t cw : std::initializer_list<std::uint16_t>{0x06, 0x07, 0x0F})
     for (std::uint8_t node = 1; node <= 4; ++node) send(fw::encode_controlword_rpdo(node, cw));
   now();
   for (int i = 0; i < 4; ++i) EXPECT_EQ(emu->status(i).state, Cia402State::kOperationEnabled);

@@ -50,7 +50,7 @@ TEST_F(Rig, BootsOverFramesAndClosesTheLoop) {
   }
   EXPECT_EQ(drain(rig.master_bus()).size(), 4u);  // SDO responses
   send(fw::encode_nmt(fw::NmtCommand::kStart, 0));
-  for (std::uint16_t cw : {0x06, 0x07, 0x0F}) {
+  for (const std::uint16_t cw : std::initializer_list<std::uint16_t>{0x06, 0x07, 0x0F}) {
     master_cycle(cw, {0, 0, 0, 0});
     rig.step(kPeriod);
   }

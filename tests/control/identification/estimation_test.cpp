@@ -39,8 +39,8 @@ TEST(WeightedLeastSquares, RecoversTheTruthAndItsSigmaMatchesTheSpreadOverManyTr
   }
   const Eigen::RowVectorXd mean = estimates.colwise().mean();
   EXPECT_LT((mean.transpose() - truth).cwiseAbs().maxCoeff(), 0.01);
-  const double spread =
-      std::sqrt((estimates.col(0).array() - mean[0]).square().sum() / (estimates.rows() - 1));
+  const double spread = std::sqrt((estimates.col(0).array() - mean[0]).square().sum() /
+                                  static_cast<double>(estimates.rows() - 1));
   EXPECT_NEAR(sigma_mean, spread, 0.2 * spread);  // reported sigma is the real scatter
 }
 

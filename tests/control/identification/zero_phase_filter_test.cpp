@@ -59,9 +59,13 @@ TEST(CentralDifference, OfASineIsTheClosedFormOfTheDifferenceQuotient) {
     ASSERT_NEAR(d[static_cast<std::size_t>(k)], std::sin(w * h) / h * std::cos(w * k * h), 1e-9);
   // Quadratics are differentiated exactly everywhere, the ends included.
   std::vector<double> q(50);
-  for (std::size_t k = 0; k < q.size(); ++k) q[k] = 3.0 * std::pow(k * h, 2) - 2.0 * k * h;
+  for (std::size_t k = 0; k < q.size(); ++k) {
+    const double t = static_cast<double>(k) * h;
+    q[k] = 3.0 * t * t - 2.0 * t;
+  }
   const std::vector<double> dq = central_difference(q, h);
-  for (std::size_t k = 0; k < q.size(); ++k) ASSERT_NEAR(dq[k], 6.0 * k * h - 2.0, 1e-9) << k;
+  for (std::size_t k = 0; k < q.size(); ++k)
+    ASSERT_NEAR(dq[k], 6.0 * static_cast<double>(k) * h - 2.0, 1e-9) << k;
 }
 
 }  // namespace

@@ -347,7 +347,7 @@ TEST(InProcessBus, CyclesAllocateNothing) {
   for (std::uint32_t cycle = 0; cycle < 2000; ++cycle) {
     hub.advance_ns(1'000'000);
     (void)master.send(make_frame(0x080, 0, 0));
-    for (std::size_t node = 1; node < 5; ++node) {
+    for (std::uint32_t node = 1; node < 5; ++node) {
       (void)master.send(make_frame(0x200 + node, static_cast<std::uint8_t>(cycle), 4));
       (void)hub.endpoint(node).send(make_frame(0x180 + node, static_cast<std::uint8_t>(cycle), 6));
       while (hub.endpoint(node).receive(f) == BusStatus::kOk) {
