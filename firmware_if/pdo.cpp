@@ -106,11 +106,13 @@ Result<std::int16_t> decode_broadcast_torque(const CanFrame& frame, std::uint8_t
 }
 
 // The FD RPDO's byte offsets come from the mapping of slot 0 (then 4 bytes per slot).
-constexpr int kFdCwAt = fd_rpdo_layout(0, 1).offset_of(od::kControlword);
-constexpr int kFdTorqueAt = fd_rpdo_layout(0, 1).offset_of(od::kTargetTorque);
-constexpr int kFdSlotBytes = fd_rpdo_layout(0, 1).bytes();
+constexpr auto kFdCwAt = static_cast<std::size_t>(fd_rpdo_layout(0, 1).offset_of(od::kControlword));
+constexpr auto kFdTorqueAt =
+    static_cast<std::size_t>(fd_rpdo_layout(0, 1).offset_of(od::kTargetTorque));
+constexpr auto kFdSlotBytes = static_cast<std::size_t>(fd_rpdo_layout(0, 1).bytes());
 static_assert(kFdCwAt == 0 && kFdTorqueAt == 2 && kFdSlotBytes == 4);
-static_assert(fd_rpdo_layout(3, 4).offset_of(od::kControlword) == 3 * kFdSlotBytes);
+static_assert(static_cast<std::size_t>(fd_rpdo_layout(3, 4).offset_of(od::kControlword)) ==
+              3 * kFdSlotBytes);
 
 Result<CanFrame> encode_fd_commands(const FdCommands& c) noexcept {
   if (c.drives < 1 || c.drives > kFdMaxDrives) return Error::kBadValue;

@@ -58,11 +58,11 @@ TEST(CanFrame, Validity) {
   f.id = 0x200;
   f.fd = true;
   f.brs = true;
-  for (std::uint8_t n : {0, 8, 12, 64}) {
+  for (std::uint8_t n : std::initializer_list<std::uint8_t>{0, 8, 12, 64}) {
     f.dlc = n;
     EXPECT_TRUE(is_valid(f)) << int{n};
   }
-  for (std::uint8_t n : {9, 13, 63, 65}) {
+  for (std::uint8_t n : std::initializer_list<std::uint8_t>{9, 13, 63, 65}) {
     f.dlc = n;
     EXPECT_FALSE(is_valid(f)) << int{n};
   }
