@@ -411,8 +411,8 @@ IoStatus CanopenActuatorSet::write(const ActuatorCommand& command) noexcept {
   add(sync_.next_frame(), Tx::kSync, 0);
   if (sync_at == count) ok = false;
   if (heartbeat_producer_.due(now))
-    add(fw::encode_heartbeat(heartbeat_producer_.node(), fw::NmtState::kOperational), Tx::kHeartbeat,
-        0);
+    add(fw::encode_heartbeat(heartbeat_producer_.node(), fw::NmtState::kOperational),
+        Tx::kHeartbeat, 0);
 
   // Every frame is tried once, as if sent one by one: a frame the bus refuses (ENOBUFS) is
   // dropped and the next is tried; after bus-off nothing more is tried (kClosed).
@@ -425,9 +425,12 @@ IoStatus CanopenActuatorSet::write(const ActuatorCommand& command) noexcept {
     k += sent;
     if (k == count) break;
     outcome[k++] = st;
-    if (st == BusStatus::kWouldBlock) ++counters_.tx_would_block;  // dropped, never queued
-    else if (st == BusStatus::kBusOff) break;
-    else ++counters_.tx_errors;
+    if (st == BusStatus::kWouldBlock)
+      ++counters_.tx_would_block;  // dropped, never queued
+    else if (st == BusStatus::kBusOff)
+      break;
+    else
+      ++counters_.tx_errors;
   }
   bool broadcast_sent = per_drive;
   for (std::size_t k = 0; k < count; ++k) {

@@ -222,7 +222,7 @@ std::size_t SocketCanBus::send_many(std::span<const fw::CanFrame> frames,
       last_errno_ = errno;
       counters_.tx_dropped += frames.size() - sent;
       status = (last_errno_ == ENOBUFS || last_errno_ == EAGAIN) ? BusStatus::kWouldBlock
-                                                                : BusStatus::kIoError;
+                                                                 : BusStatus::kIoError;
       return sent;
     }
     // A short count: the next call reports why the rest could not be queued.
@@ -358,8 +358,7 @@ BusStatus SocketCanBus::receive(fw::CanFrame& frame) noexcept {
   return BusStatus::kWouldBlock;
 }
 
-std::size_t SocketCanBus::receive_many(std::span<fw::CanFrame> frames,
-                                       BusStatus& status) noexcept {
+std::size_t SocketCanBus::receive_many(std::span<fw::CanFrame> frames, BusStatus& status) noexcept {
   status = BusStatus::kOk;
   if (fd_ < 0) {
     status = BusStatus::kClosed;
@@ -411,8 +410,10 @@ std::size_t SocketCanBus::receive_many(std::span<fw::CanFrame> frames,
       }
     }
     if (static_cast<std::size_t>(r) < want) {  // the queue is empty
-      if (bus_off_) status = BusStatus::kBusOff;
-      else if (got < frames.size()) status = BusStatus::kWouldBlock;
+      if (bus_off_)
+        status = BusStatus::kBusOff;
+      else if (got < frames.size())
+        status = BusStatus::kWouldBlock;
       return got;
     }
   }

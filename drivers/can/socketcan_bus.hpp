@@ -40,7 +40,7 @@
 #include "drivers/can/socketcan_error.hpp"
 
 struct canfd_frame;  // <linux/can.h>
-struct msghdr;     // <sys/socket.h>
+struct msghdr;       // <sys/socket.h>
 
 namespace dualv::drivers {
 

@@ -5,8 +5,8 @@
 #include <cstdint>
 
 #include "drivers/can/can_bus.hpp"
-#include "firmware_if/result.hpp"
 #include "firmware_if/nmt.hpp"
+#include "firmware_if/result.hpp"
 
 namespace dualv::drivers::canopen {
 

@@ -31,8 +31,7 @@ std::map<std::string, std::vector<std::string>> rows(const std::string& out) {
     std::istringstream words(line);
     std::vector<std::string> w;
     for (std::string s; words >> s;) w.push_back(s);
-    if (w.size() == 13 && (w[0] == "per_drive" || w[0] == "broadcast" || w[0] == "fd"))
-      r[w[0]] = w;
+    if (w.size() == 13 && (w[0] == "per_drive" || w[0] == "broadcast" || w[0] == "fd")) r[w[0]] = w;
   }
   return r;
 }

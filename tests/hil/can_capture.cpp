@@ -77,8 +77,8 @@ int main(int argc, char** argv) {
   sa.sa_handler = on_signal;
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
-  std::fprintf(stderr, "can_capture: capturing %s into %s every %ld ms\n", ifname.c_str(),
-               argv[2], period_ms);
+  std::fprintf(stderr, "can_capture: capturing %s into %s every %ld ms\n", ifname.c_str(), argv[2],
+               period_ms);
   std::vector<dualv::fw::CanFrame> batch(64);
   unsigned long long frames = 0;
   for (;;) {

@@ -27,8 +27,8 @@
 #include <thread>
 #include <vector>
 
-#include "tests/support/allocation_counter.hpp"
 #include "drivers/can/socketcan_bus.hpp"
+#include "tests/support/allocation_counter.hpp"
 
 namespace dualv::drivers {
 namespace {

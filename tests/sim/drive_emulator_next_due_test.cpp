@@ -31,7 +31,7 @@ class NextDueTest : public test::EmulatorTest {
     build(default_config());
     to_operation_enabled();
     write(1, od::pdo_event_timer(od::PdoDirection::kRpdo, 1), 10);  // RPDO deadline 10 ms
-    write(2, od::kProducerHeartbeat, 20);                              // 20 ms heartbeats
+    write(2, od::kProducerHeartbeat, 20);                           // 20 ms heartbeats
     write(3, od::consumer_heartbeat(1), fw::consumer_heartbeat_value(127, 50));
     send(fw::encode_heartbeat(127, fw::NmtState::kOperational));
     now();
