@@ -25,28 +25,22 @@ import argparse
 import re
 import sys
 
+from wire_check_common import config_bus_layout, config_drives, config_torque_max, read_config
+
+TOOL = "check_fd_wire"
+
 
 def parse_config(path):
-    text = open(path).read()
-    drives = []
-    for m in re.finditer(r"-\s*\{([^}]*node_id[^}]*)\}", text):
-        fields = dict(re.findall(r"(\w+):\s*([-0-9.eE+]+)", m.group(1)))
-        drives.append({"node": int(fields["node_id"]), "rated": float(fields["rated_torque"]),
-                       "max": float(fields["max_torque"])})
-    if not drives:
-        raise SystemExit(f"check_fd_wire: no can.drives entries in {path}")
-    layout = re.search(r"\n\s+bus_layout:\s*(\w+)", text)
-    if not layout or layout.group(1) != "fd":
-        raise SystemExit(f"check_fd_wire: {path} does not say bus_layout: fd")
-    safety = text[text.index("\nsafety:"):]
-    torque = re.search(r"\n\s+torque:\s*\n\s+max:\s*([0-9.]+)", safety)
-    if not torque:
-        raise SystemExit(f"check_fd_wire: no safety.torque.max in {path}")
-    return drives, float(torque.group(1))
+    text = read_config(path)
+    drives = config_drives(text, path, TOOL)
+    if config_bus_layout(text) != "fd":
+        raise SystemExit(f"{TOOL}: {path} does not say bus_layout: fd")
+    return drives, config_torque_max(text, path, TOOL)
 
 
 def frames(path):
-    """(time, cob, data, fd, brs) per data frame; classic `ID#data`, FD `ID##Fdata`."""
+    """(time, cob, data, fd, brs) per data frame; classic `ID#data`, FD `ID##Fdata` (the FD
+    form wire_check_common.frames does not read)."""
     pat = re.compile(r"^\((\d+\.\d+)\)\s+(\S+)\s+([0-9A-Fa-f]+)(#|##([0-9A-Fa-f]))([0-9A-Fa-f]*)$")
     for line in open(path):
         m = pat.match(line.strip())
