@@ -35,7 +35,7 @@ misses=$(awk '/^loop:/ {for (i=1;i<=NF;i++) if ($i=="deadline" && $(i+1) ~ /miss
 "$dualv" bus-load >"$tmp/bus.log"
 # One row per bus layout, from `dualv bus-load`'s side-by-side table (firmware_if/bus_layout.hpp).
 bus_rows=$(awk '/^Layouts for/ {match($0, /at [0-9.]+ Hz/); at = substr($0, RSTART + 3, RLENGTH - 3)}
-  $1 ~ /^(per_drive|broadcast|can_fd)$/ && $NF ~ /^(yes|NO)$/ {
+  $1 ~ /^(per_drive|broadcast|fd)$/ && $NF ~ /^(yes|NO)$/ {
     data = $3 > 0 ? sprintf(" + %s data-phase bits", $3) : ""
     printf "| CAN bus, %s layout, worst case | %s bits/cycle%s = %s us; at %s: %s %% cyclic, %s %% with event frames; max rate %s Hz | <= 90 %% cyclic, <= 95 %% with events |\n", \
       $1, $2, data, $4, at, $5, $7, $11
