@@ -46,7 +46,7 @@ def bus_limits(dualv, config):
     limits = {}
     for line in p.stdout.splitlines():
         f = line.split()
-        if len(f) >= 12 and f[0] in ("per_drive", "broadcast", "can_fd") and f[-1] in ("yes", "NO"):
+        if len(f) >= 12 and f[0] in ("per_drive", "broadcast", "fd") and f[-1] in ("yes", "NO"):
             limits[f[0]] = float(f[-3])
     return limits
 
