@@ -234,7 +234,6 @@ int run_sim(const SimArgs& a) {
     const std::uint64_t now = now_ns();
     before = now;  // the next wait is computed from here (a clock read less per wake-up)
     emu.poll(now);
-    (void)batched.flush();  // every answer of this wake-up in one sendmmsg
     const double t = seconds(now);
     if (bus.state() == drivers::BusStatus::kBusOff && batched.restart() == drivers::BusStatus::kOk)
       fmt::print("dualv sim: bus-off, restarted\n");
@@ -263,6 +262,9 @@ int run_sim(const SimArgs& a) {
       fmt::print("{}\n", status_line(emu, t));
       next_status += a.status_every;
     }
+    // Every frame of this wake-up in one sendmmsg: the answers, and the EMCY of a fault or
+    // e-stop injected above (at once, not at the next wake-up).
+    (void)batched.flush();
     std::fflush(stdout);
     if (a.exit_after >= 0 && t >= a.exit_after) {
       reason = "--exit-after";
