@@ -97,7 +97,8 @@ fi
 
 if [[ $booted -eq 1 && $run_rc -ne 0 ]]; then
   timing=0
-  grep -Eq "safety stop \((consecutive deadline misses|deadline miss|stale feedback|drive lost)\)" \
+  # One or more timing causes, e.g. "safety stop (stale feedback, consecutive deadline misses)".
+  grep -Eq "safety stop \(((consecutive deadline misses|deadline miss|stale feedback|drive lost)(, )?)+\)" \
     "$tmp/run.log" && timing=1
   # The drives stopped on their own before the program could start, because the host was
   # silent for longer than their 1016h / RPDO deadline while the guest stalled (EMCY 8130h /

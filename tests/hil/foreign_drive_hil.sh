@@ -100,7 +100,8 @@ if [[ $booted -eq 1 && $run_rc -ne 0 ]]; then
   # host was silent between boot and the first cycle: EMCY 8130h (their 1016h consumer of
   # the host's heartbeat) or 8250h (their RPDO deadline).
   timing=0
-  grep -Eq "safety stop \((consecutive deadline misses|deadline miss|stale feedback|drive lost)\)" \
+  # One or more timing causes, e.g. "safety stop (stale feedback, consecutive deadline misses)".
+  grep -Eq "safety stop \(((consecutive deadline misses|deadline miss|stale feedback|drive lost)(, )?)+\)" \
     "$tmp/run.log" && timing=1
   grep -Eq "cycle 0 .*safety stop \(drive fault\)" "$tmp/run.log" &&
     grep -Eq "EMCY (8130|8250)h active" "$tmp/run.log" && timing=1
