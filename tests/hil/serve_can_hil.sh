@@ -41,7 +41,6 @@
 #     in one sendmmsg); the capture (SCHED_FIFO 95) wakes every 5 ms, not per frame, and fails
 #     the test if its 8 MB receive buffer ever overflowed. This is what lets the one virtual
 #     CPU carry the loop at all (tests/hil/README.md "Timing in the guest")
-#   - the stall probe sleeps 5 ms and records stalls above 8 ms (the RPDO deadline is 10 ms)
 # Usage: serve_can_hil.sh DUALV_BINARY CONFIG_YAML PROGRAM_YAML CAN_CAPTURE_BINARY
 # KEEP=1 keeps the work folder (logs, capture) and prints its path.
 set -u
@@ -105,9 +104,9 @@ import sys, time
 out = open(sys.argv[1], "w", buffering=1)
 last = time.time()
 while True:
-    time.sleep(0.005)
+    time.sleep(0.002)
     now = time.time()
-    if now - last > 0.008:
+    if now - last > 0.004:
         out.write("%.6f %.6f\n" % (last, now))
     last = now
 ' "$tmp/stalls.txt" &
