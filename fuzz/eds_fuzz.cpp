@@ -15,6 +15,7 @@
 //   - eds-check's report names a node in each line; the objects `dualv sim --eds` leaves out
 //     are exactly firmware_if's objects the EDS lacks.
 #include <algorithm>
+#include <cctype>
 #include <cstdint>
 #include <cstdlib>
 #include <exception>
@@ -33,6 +34,14 @@ namespace {
 namespace eds = dualv::fw::eds;
 namespace fw = dualv::fw;
 
+// `s` without the white space (std::isspace: also \v, \f, \r) the EDS reader ignores around a
+// line and inside a section header's brackets (firmware_if/eds.cpp).
+std::string_view trimmed(std::string_view s) {
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
+  return s;
+}
+
 // Line `n` (1-based) of `text`, without its line ending; "" past the end.
 std::string_view line_of(std::string_view text, int n) {
   std::size_t start = 0;
@@ -41,17 +50,13 @@ std::string_view line_of(std::string_view text, int n) {
     if (nl == std::string_view::npos) return {};
     start = nl + 1;
   }
-  std::string_view l = text.substr(start, text.find('\n', start) - start);
-  while (!l.empty() && (l.back() == '\r' || l.back() == ' ' || l.back() == '\t'))
-    l.remove_suffix(1);
-  while (!l.empty() && (l.front() == ' ' || l.front() == '\t')) l.remove_prefix(1);
-  return l;
+  return trimmed(text.substr(start, text.find('\n', start) - start));
 }
 
 // The index of a section header "[IIII]" (hex), or -1.
 long section_index(std::string_view l) {
   if (l.size() < 3 || l.front() != '[' || l.back() != ']') return -1;
-  const std::string hex(l.substr(1, l.size() - 2));
+  const std::string hex(trimmed(l.substr(1, l.size() - 2)));
   if (hex.empty() || hex.find_first_not_of("0123456789abcdefABCDEF") != std::string::npos)
     return -1;
   return hex.size() > 8 ? -1 : static_cast<long>(std::strtoul(hex.c_str(), nullptr, 16));

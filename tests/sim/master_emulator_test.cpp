@@ -276,27 +276,84 @@ TEST_F(MasterEmulator, ForeignDriveBootsAndRuns) {
     EXPECT_EQ(f.drive[static_cast<std::size_t>(i)].state, drivers::DriveState::kEnabled) << i;
 }
 
+// A rig for one bus layout (issue 15): the shipped config with `can.bus_layout` set, the
+// emulator as that config (or `emu`) describes its drives, a monitor that sees every frame.
+struct LayoutRig {
+  using Objects = std::vector<std::pair<std::pair<std::uint16_t, std::uint8_t>, std::uint32_t>>;
+
+  explicit LayoutRig(fw::BusLayout layout)
+      : LayoutRig(layout, emulator_config_from(with_layout(layout))) {}
+  LayoutRig(fw::BusLayout layout, const DriveEmulatorConfig& emu)
+      : c(with_layout(layout)),
+        r(test::dual_v(), load_plant_config_file(test::config_file()), emu, 4096),
+        w(r, clk) {}
+  static drivers::CanConfig with_layout(fw::BusLayout layout) {
+    drivers::CanConfig c = drivers::load_can_config_file(test::config_file());
+    c.bus_layout = layout;
+    return c;
+  }
+  std::unique_ptr<drivers::CanopenActuatorSet> boot() {
+    return drivers::boot_actuator_set(r.master_bus(), clk, w, c);
+  }
+  // The object dictionary of the drive in `slot` holds `want` (read back from the emulator).
+  void expect_objects(int slot, const Objects& want) {
+    std::uint32_t v = 0;
+    for (const auto& [key, value] : want) {
+      ASSERT_TRUE(r.emulator().read_object(slot, key.first, key.second, v));
+      EXPECT_EQ(v, value) << std::hex << key.first << " sub " << int(key.second);
+    }
+  }
+  // One cycle of `set` (read, write `cmd`), one SYNC period of the rig: the frames it carried.
+  std::vector<fw::CanFrame> cycle(drivers::CanopenActuatorSet& set, drivers::ActuatorFeedback& f,
+                                  const drivers::ActuatorCommand& cmd) {
+    set.read(f);
+    set.write(cmd);
+    return idle();
+  }
+  // One SYNC period of the rig with the host silent.
+  std::vector<fw::CanFrame> idle() {
+    r.step(c.sync_period_ns);
+    clk.set_ns(r.now_ns());
+    return drain_all(r.monitor_bus());
+  }
+  // Boot must fail; the error's text.
+  std::string boot_error() {
+    try {
+      (void)boot();
+    } catch (const std::exception& ex) {
+      return ex.what();
+    }
+    ADD_FAILURE() << "booted";
+    return {};
+  }
+
+  drivers::CanConfig c;
+  InProcessCanRig r;
+  drivers::canopen::ManualClock clk;
+  RigWaiter w;
+};
+
 // Issue 15: the broadcast layout booted by the real master into the emulator, checked on
 // the wire (a monitor sees every frame) against the frames the layout defines.
 TEST(MasterEmulatorBroadcast, BootsRunsAndTheWireIsTheLayout) {
-  drivers::CanConfig c = drivers::load_can_config_file(test::config_file());
-  c.bus_layout = fw::BusLayout::kBroadcast;
-  InProcessCanRig r(test::dual_v(), load_plant_config_file(test::config_file()), c, 4096);
-  drivers::canopen::ManualClock clk;
-  RigWaiter w(r, clk);
-  auto set = drivers::boot_actuator_set(r.master_bus(), clk, w, c);
+  LayoutRig rig(fw::BusLayout::kBroadcast);
+  const drivers::CanConfig& c = rig.c;
+  InProcessCanRig& r = rig.r;
+  auto set = rig.boot();
   // The mappings read back from the drives' dictionaries: node 3 (slot 2) maps dummy,
   // dummy, 6071h, dummy in RPDO2 (1601h) on 200h; TPDO1 = 6064h; TPDO3 = 6041h.
-  std::uint32_t v = 0;
-  const std::vector<std::pair<std::pair<std::uint16_t, std::uint8_t>, std::uint32_t>> want = {
-      {{0x1401, 1}, 0x00000200}, {{0x1601, 0}, 4},          {{0x1601, 1}, 0x00030010},
-      {{0x1601, 2}, 0x00030010}, {{0x1601, 3}, 0x60710010}, {{0x1601, 4}, 0x00030010},
-      {{0x1A00, 0}, 1},          {{0x1A00, 1}, 0x60640020}, {{0x1802, 1}, 0x40000383},
-      {{0x1802, 2}, 0xFF},       {{0x1802, 3}, 100},        {{0x1A02, 1}, 0x60410010}};
-  for (const auto& [key, value] : want) {
-    ASSERT_TRUE(r.emulator().read_object(2, key.first, key.second, v));
-    EXPECT_EQ(v, value) << std::hex << key.first << " sub " << int(key.second);
-  }
+  rig.expect_objects(2, {{{0x1401, 1}, 0x00000200},
+                         {{0x1601, 0}, 4},
+                         {{0x1601, 1}, 0x00030010},
+                         {{0x1601, 2}, 0x00030010},
+                         {{0x1601, 3}, 0x60710010},
+                         {{0x1601, 4}, 0x00030010},
+                         {{0x1A00, 0}, 1},
+                         {{0x1A00, 1}, 0x60640020},
+                         {{0x1802, 1}, 0x40000383},
+                         {{0x1802, 2}, 0xFF},
+                         {{0x1802, 3}, 100},
+                         {{0x1A02, 1}, 0x60410010}});
   (void)drain_all(r.monitor_bus());
   drivers::ActuatorFeedback f;
   drivers::ActuatorCommand cmd;
@@ -306,13 +363,9 @@ TEST(MasterEmulatorBroadcast, BootsRunsAndTheWireIsTheLayout) {
   std::uint64_t min_sw_gap = ~0ull;
   int torque_frames = 0, positions = 0, syncs = 0;
   for (int k = 0; k < 600; ++k) {
-    set->read(f);
     cmd.request = k < 100 ? drivers::DriveRequest::kEnable : drivers::DriveRequest::kHold;
     cmd.torque = {0.5, -0.5, 0.25, -0.25};
-    set->write(cmd);
-    r.step(c.sync_period_ns);
-    clk.set_ns(r.now_ns());
-    for (const fw::CanFrame& fr : drain_all(r.monitor_bus())) {
+    for (const fw::CanFrame& fr : rig.cycle(*set, f, cmd)) {
       syncs += fr.id == 0x080;
       if (fr.id == 0x200) {
         ++torque_frames;
@@ -350,85 +403,65 @@ TEST(MasterEmulatorBroadcast, BootsRunsAndTheWireIsTheLayout) {
   // The host's stale-feedback check is on the position TPDO1: drive 2 stops sending TPDOs,
   // and the very next read() finds it not fresh (its statusword is still within its bound).
   r.emulator().drop_tpdos(1, DriveEmulator::kForever);
-  for (int k = 0; k < 2; ++k) {
-    set->read(f);
-    set->write(cmd);
-    r.step(c.sync_period_ns);
-    clk.set_ns(r.now_ns());
-  }
+  for (int k = 0; k < 2; ++k) (void)rig.cycle(*set, f, cmd);
   set->read(f);
   EXPECT_FALSE(f.drive[1].fresh);
   EXPECT_TRUE(f.drive[0].fresh);
   // The drives' RPDO deadline is the event timer of the broadcast RPDO (1401h sub5 =
   // can.rpdo_deadline, 10 ms): the host goes silent, every drive trips it once.
-  for (int k = 0; k < 15; ++k) {
-    r.step(c.sync_period_ns);
-    clk.set_ns(r.now_ns());
-  }
+  for (int k = 0; k < 15; ++k) (void)rig.idle();
   for (int i = 0; i < 4; ++i) EXPECT_EQ(r.emulator().status(i).counters.deadline_trips, 1u) << i;
 }
 
 TEST(MasterEmulatorBroadcast, DriveWithoutDummyMappingRefusedByName) {
-  drivers::CanConfig c = drivers::load_can_config_file(test::config_file());
-  c.bus_layout = fw::BusLayout::kBroadcast;
-  DriveEmulatorConfig e = emulator_config_from(c);
+  DriveEmulatorConfig e = emulator_config_from(LayoutRig::with_layout(fw::BusLayout::kBroadcast));
   e.refuse_dummy_mapping = true;
-  InProcessCanRig r(test::dual_v(), load_plant_config_file(test::config_file()), e);
-  drivers::canopen::ManualClock clk;
-  RigWaiter w(r, clk);
-  try {
-    (void)drivers::boot_actuator_set(r.master_bus(), clk, w, c);
-    FAIL() << "booted";
-  } catch (const std::exception& ex) {
-    const std::string m = ex.what();
-    // Node 1 (slot 0) maps 6071h at sub1, its first dummy at sub2.
-    EXPECT_NE(m.find("node 1 (can.drives[0]) refuses the CiA 301 dummy mapping entry 0003h"),
-              std::string::npos)
-        << m;
-    EXPECT_NE(m.find("1601h sub2"), std::string::npos) << m;
-    EXPECT_NE(m.find("use per_drive"), std::string::npos) << m;
-  }
-  for (int i = 0; i < 4; ++i) EXPECT_NE(r.emulator().status(i).nmt, EmulatedNmt::kOperational);
+  LayoutRig rig(fw::BusLayout::kBroadcast, e);
+  const std::string m = rig.boot_error();
+  // Node 1 (slot 0) maps 6071h at sub1, its first dummy at sub2.
+  EXPECT_NE(m.find("node 1 (can.drives[0]) refuses the CiA 301 dummy mapping entry 0003h"),
+            std::string::npos)
+      << m;
+  EXPECT_NE(m.find("1601h sub2"), std::string::npos) << m;
+  EXPECT_NE(m.find("use per_drive"), std::string::npos) << m;
+  for (int i = 0; i < 4; ++i) EXPECT_NE(rig.r.emulator().status(i).nmt, EmulatedNmt::kOperational);
 }
 
 // Issue 15: the CAN FD layout booted by the real master into CAN FD drives, the mappings read
 // back from the drives and every frame on the wire checked against the layout by hand.
 TEST(MasterEmulatorFd, BootsRunsAndTheWireIsTheLayout) {
-  drivers::CanConfig c = drivers::load_can_config_file(test::config_file());
-  c.bus_layout = fw::BusLayout::kFd;
-  InProcessCanRig r(test::dual_v(), load_plant_config_file(test::config_file()), c, 4096);
-  drivers::canopen::ManualClock clk;
-  RigWaiter w(r, clk);
-  auto set = drivers::boot_actuator_set(r.master_bus(), clk, w, c);
+  LayoutRig rig(fw::BusLayout::kFd);
+  InProcessCanRig& r = rig.r;
+  auto set = rig.boot();
   // Node 3 (slot 2): RPDO2 (1401h/1601h) on 200h maps dummy u16 (0006h), dummy i16 (0003h)
   // for slots 0 and 1, its own 6040h + 6071h, then dummies for slot 3; RPDO1 not valid
   // (bit 31); TPDO1 = 6041h + 6064h every SYNC.
-  std::uint32_t v = 0;
-  const std::vector<std::pair<std::pair<std::uint16_t, std::uint8_t>, std::uint32_t>> want = {
-      {{0x1400, 1}, 0x80000203}, {{0x1401, 1}, 0x00000200}, {{0x1401, 2}, 1},
-      {{0x1601, 0}, 8},          {{0x1601, 1}, 0x00060010}, {{0x1601, 2}, 0x00030010},
-      {{0x1601, 3}, 0x00060010}, {{0x1601, 4}, 0x00030010}, {{0x1601, 5}, 0x60400010},
-      {{0x1601, 6}, 0x60710010}, {{0x1601, 7}, 0x00060010}, {{0x1601, 8}, 0x00030010},
-      {{0x1A00, 0}, 2},          {{0x1A00, 1}, 0x60410010}, {{0x1A00, 2}, 0x60640020},
-      {{0x1800, 2}, 1}};
-  for (const auto& [key, value] : want) {
-    ASSERT_TRUE(r.emulator().read_object(2, key.first, key.second, v));
-    EXPECT_EQ(v, value) << std::hex << key.first << " sub " << int(key.second);
-  }
+  rig.expect_objects(2, {{{0x1400, 1}, 0x80000203},
+                         {{0x1401, 1}, 0x00000200},
+                         {{0x1401, 2}, 1},
+                         {{0x1601, 0}, 8},
+                         {{0x1601, 1}, 0x00060010},
+                         {{0x1601, 2}, 0x00030010},
+                         {{0x1601, 3}, 0x00060010},
+                         {{0x1601, 4}, 0x00030010},
+                         {{0x1601, 5}, 0x60400010},
+                         {{0x1601, 6}, 0x60710010},
+                         {{0x1601, 7}, 0x00060010},
+                         {{0x1601, 8}, 0x00030010},
+                         {{0x1A00, 0}, 2},
+                         {{0x1A00, 1}, 0x60410010},
+                         {{0x1A00, 2}, 0x60640020},
+                         {{0x1800, 2}, 1}});
   (void)drain_all(r.monitor_bus());
   drivers::ActuatorFeedback f;
   drivers::ActuatorCommand cmd;
   cmd.n = 4;
   int fd_rpdos = 0, tpdos = 0, syncs = 0, others = 0;
   fw::CanFrame last_rpdo;
+  cmd.request = drivers::DriveRequest::kEnable;
+  cmd.torque = {0.5, -0.5, 0.25, -0.25};
   for (int k = 0; k < 300; ++k) {
-    set->read(f);
-    cmd.request = drivers::DriveRequest::kEnable;
-    cmd.torque = {0.5, -0.5, 0.25, -0.25};
-    set->write(cmd);
-    r.step(c.sync_period_ns);
-    clk.set_ns(r.now_ns());
-    for (const fw::CanFrame& fr : drain_all(r.monitor_bus())) {
+    for (const fw::CanFrame& fr : rig.cycle(*set, f, cmd)) {
       if (fr.id == 0x080) {
         ++syncs;
         EXPECT_FALSE(fr.fd);  // SYNC stays classic
@@ -468,26 +501,17 @@ TEST(MasterEmulatorFd, BootsRunsAndTheWireIsTheLayout) {
 }
 
 TEST(MasterEmulatorFd, ClassicDriveRefusedByName) {
-  drivers::CanConfig c = drivers::load_can_config_file(test::config_file());
-  c.bus_layout = fw::BusLayout::kFd;
-  DriveEmulatorConfig e = emulator_config_from(c);
+  DriveEmulatorConfig e = emulator_config_from(LayoutRig::with_layout(fw::BusLayout::kFd));
   ASSERT_TRUE(e.fd);
   e.fd = false;  // dualv sim --no-fd: PDOs end at 8 bytes
-  InProcessCanRig r(test::dual_v(), load_plant_config_file(test::config_file()), e);
-  drivers::canopen::ManualClock clk;
-  RigWaiter w(r, clk);
-  try {
-    (void)drivers::boot_actuator_set(r.master_bus(), clk, w, c);
-    FAIL() << "booted";
-  } catch (const std::exception& ex) {
-    const std::string m = ex.what();
-    EXPECT_NE(m.find("node 1 (can.drives[0]) refuses the 16-byte CAN FD RPDO mapping"),
-              std::string::npos)
-        << m;
-    EXPECT_NE(m.find("06040042h"), std::string::npos) << m;  // mapping exceeds the PDO length
-    EXPECT_NE(m.find("use per_drive or broadcast"), std::string::npos) << m;
-  }
-  for (int i = 0; i < 4; ++i) EXPECT_NE(r.emulator().status(i).nmt, EmulatedNmt::kOperational);
+  LayoutRig rig(fw::BusLayout::kFd, e);
+  const std::string m = rig.boot_error();
+  EXPECT_NE(m.find("node 1 (can.drives[0]) refuses the 16-byte CAN FD RPDO mapping"),
+            std::string::npos)
+      << m;
+  EXPECT_NE(m.find("06040042h"), std::string::npos) << m;  // mapping exceeds the PDO length
+  EXPECT_NE(m.find("use per_drive or broadcast"), std::string::npos) << m;
+  for (int i = 0; i < 4; ++i) EXPECT_NE(rig.r.emulator().status(i).nmt, EmulatedNmt::kOperational);
 }
 
 }  // namespace
