@@ -15,20 +15,48 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc)
 
+# Each phase prints its start; at the end (or at a failure) a table of what each took, so a
+# slow CI run shows where its time went (issue 14: the suite stays under 45 min on 2 cores).
+suite_start=$SECONDS
+phase_names=()
+phase_secs=()
+phase_start=$SECONDS
+phase() {
+  phase_close
+  phase_names+=("$1")
+  phase_start=$SECONDS
+  echo "== $1 == (at $(( (SECONDS - suite_start) / 60 )) min)"
+}
+phase_close() {
+  [ ${#phase_names[@]} -gt ${#phase_secs[@]} ] && phase_secs+=($((SECONDS - phase_start)))
+  return 0
+}
+phase_summary() {
+  local rc=$?
+  phase_close
+  echo "== time per phase =="
+  for i in "${!phase_names[@]}"; do
+    printf '%6d s  %s\n' "${phase_secs[$i]}" "${phase_names[$i]}"
+  done
+  printf '%6d s  total (exit %d)\n' $((SECONDS - suite_start)) "$rc"
+}
+trap phase_summary EXIT
+
+phase "dependencies (scripts/install-deps.sh)"
 bash scripts/install-deps.sh
 
 # The layers (docs/architecture.md "Layers"): no include may go up; seconds, so first.
-echo "== layers (scripts/check-layers.sh) =="
+phase "layers (scripts/check-layers.sh)"
 bash scripts/check-layers.sh
 
-echo "== release build (-Werror) =="
+phase "release build (-Werror)"
 cmake -S . -B build/release -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDUALV_WERROR=ON >/dev/null
 cmake --build build/release -j"$jobs"
-echo "== tests (release) =="
+phase "tests (release)"
 ctest --test-dir build/release --output-on-failure -j"$jobs" --timeout 900 -LE hil
 # HIL tests boot a user-mode-linux guest whose timing is coarse (ms-scale stalls on a shared
 # machine): one at a time, and a case that fails is run once more (it must then pass).
-echo "== hardware-in-the-loop tests (vcan in user-mode-linux) =="
+phase "hardware-in-the-loop tests (vcan in user-mode-linux)"
 # tests/hil/KNOWN_FAILING lists HIL tests that fail since the always-on loop (issue 12) and
 # are being fixed: they run and report below, but do not stop this script. Every other HIL
 # test gates as before. The list must shrink to nothing; see the file for each reason.
@@ -36,31 +64,31 @@ known=$(grep -v '^#' tests/hil/KNOWN_FAILING | awk 'NF {print $1}' | paste -sd'|
 if [[ -n $known ]]; then
   ctest --test-dir build/release --output-on-failure --timeout 900 -L hil -E "^(${known})\$" \
     --repeat until-pass:2
-  echo "== known-failing HIL tests (reported, not gating: tests/hil/KNOWN_FAILING) =="
+  phase "known-failing HIL tests (reported, not gating: tests/hil/KNOWN_FAILING)"
   ctest --test-dir build/release --output-on-failure --timeout 900 -L hil -R "^(${known})\$" ||
     echo "KNOWN FAILING (not gating, tests/hil/KNOWN_FAILING): ${known}"
 else
   ctest --test-dir build/release --output-on-failure --timeout 900 -L hil --repeat until-pass:2
 fi
 
-echo "== package: build the .deb, install it, run the installed dualv =="
+phase "package: build the .deb, install it, run the installed dualv"
 bash scripts/package-test.sh --jobs "$jobs"
 
 if [ "${DUALV_SKIP_ASAN:-0}" != 1 ]; then
-  echo "== sanitizer build (ASan + UBSan) =="
+  phase "sanitizer build (ASan + UBSan)"
   # Warnings are enforced by the release build above; GCC 12 reports false
   # -Wmaybe-uninitialized positives in libstdc++ (std::regex) under the sanitizers.
   cmake -S . -B build/asan -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" \
     -DDUALV_SANITIZE=ON -DDUALV_WERROR=OFF \
     -DDUALV_BUILD_BENCH=OFF >/dev/null
   cmake --build build/asan -j"$jobs"
-  echo "== tests (ASan + UBSan) =="
+  phase "tests (ASan + UBSan)"
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     ctest --test-dir build/asan --output-on-failure -j"$jobs" --timeout 1800
 fi
 
 if [ "${DUALV_SKIP_TSAN:-0}" != 1 ]; then
-  echo "== ThreadSanitizer build (the threaded tests) =="
+  phase "ThreadSanitizer build (the threaded tests)"
   cmake -S . -B build/tsan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDUALV_TSAN=ON -DDUALV_WERROR=OFF \
     -DDUALV_BUILD_BENCH=OFF >/dev/null
   # The tests that run threads: the command channel, telemetry publisher and service
@@ -69,7 +97,7 @@ if [ "${DUALV_SKIP_TSAN:-0}" != 1 ]; then
   # (safety_tests), a streamed closed loop with its telemetry (apps_tests).
   cmake --build build/tsan -j"$jobs" --target runtime_tests common_tests loop_tests safety_tests apps_tests \
     executor_tests
-  echo "== tests (ThreadSanitizer) =="
+  phase "tests (ThreadSanitizer)"
   export TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1"
   build/tsan/tests/runtime/runtime_tests --gtest_brief=1
   build/tsan/tests/common/common_tests --gtest_brief=1 --gtest_filter='SpscQueue.*'
@@ -81,6 +109,6 @@ if [ "${DUALV_SKIP_TSAN:-0}" != 1 ]; then
 fi
 
 if [ "${DUALV_SKIP_FUZZ:-0}" != 1 ]; then
-  echo "== fuzzing (libFuzzer + ASan + UBSan, ${DUALV_FUZZ_SECONDS:-20} s per target) =="
+  phase "fuzzing (libFuzzer + ASan + UBSan, ${DUALV_FUZZ_SECONDS:-20} s per target)"
   bash scripts/fuzz.sh --time "${DUALV_FUZZ_SECONDS:-20}" --jobs "$jobs"
 fi
