@@ -35,7 +35,7 @@ timing_stop='safety stop (.*\(consecutive deadline misses\|stale feedback\)'
 start_run() {
   rm -rf "$tmp/out"
   "$dualv" run -c "$config" -p "$(dirname "$config")/paper.yaml" --realtime --variant retimed \
-    --no-plots --out "$tmp/out" --lcm "$url" --replay-state "$tmp/replay.state" >"$tmp/run.log" 2>&1 &
+    --no-plots --out "$tmp/out" --lcm "$url" --replay-state "$tmp/state/replay.state" >"$tmp/run.log" 2>&1 &
   run_pid=$!
 }
 # A run stopped by the LCM e-stop while it ran: SS1, then STO, in its fault log.
