@@ -8,6 +8,7 @@
 #include <string>
 
 #include "sim/canopen/object_dictionary.hpp"
+#include "sim/canopen/pdo_engine.hpp"
 #include "sim/canopen/sdo_server.hpp"
 
 namespace dualv::sim {
@@ -50,38 +51,6 @@ constexpr std::uint8_t error_register_for(std::uint16_t code) noexcept {
   return r;
 }
 
-// A PDO's payload: up to 64 bytes (a CAN FD frame; 8 on a classic drive).
-using PdoData = std::array<std::uint8_t, fw::kFdMaxBytes>;
-
-struct MapRef {
-  int slot = -1;  // -1: dummy entry (RPDO only)
-  std::uint8_t bytes = 0;
-};
-
-struct Pdo {
-  // From the dictionary (rebuild()).
-  bool valid = false;
-  std::uint16_t cob = 0;
-  std::uint8_t type = 0;
-  std::uint16_t event_ms = 0;
-  std::uint64_t inhibit_ns = 0;  // TPDO: 1800h sub3 x 100 us
-  std::uint8_t count = 0;
-  std::array<MapRef, fw::od::kPdoMaxMappedObjects> map{};
-  std::uint8_t bytes = 0;
-  bool maps_torque = false;
-  // Run time.
-  PdoData staged{};  // synchronous RPDO waiting for the next SYNC
-  bool pending = false;
-  std::uint8_t sync_count = 0;  // TPDO types 1..240
-  PdoData last{};               // TPDO types 0/254/255: last sent
-  bool sent_once = false;
-  std::uint64_t next_event_ns = 0;  // TPDO event timer
-  std::uint64_t last_tx_ns = 0;     // TPDO: last transmission (inhibit time)
-  bool change_pending = false;      // TPDO: a change waits for the inhibit time to end
-  std::uint64_t last_rx_ns = 0;     // RPDO deadline (event timer)
-  bool deadline_armed = false;
-};
-
 // The objects a foreign drive may lack (DriveEmulatorConfig::absent_objects).
 bool may_be_absent(std::uint16_t index) noexcept {
   switch (index) {
@@ -101,15 +70,6 @@ bool may_be_absent(std::uint16_t index) noexcept {
     default:
       return false;
   }
-}
-
-bool is_pdo_parameter(std::uint16_t index) noexcept {
-  return (index >= fw::od::kRpdoCommunicationBase &&
-          index < fw::od::kRpdoCommunicationBase + kEmulatedPdos) ||
-         (index >= fw::od::kRpdoMappingBase && index < fw::od::kRpdoMappingBase + kEmulatedPdos) ||
-         (index >= fw::od::kTpdoCommunicationBase &&
-          index < fw::od::kTpdoCommunicationBase + kEmulatedPdos) ||
-         (index >= fw::od::kTpdoMappingBase && index < fw::od::kTpdoMappingBase + kEmulatedPdos);
 }
 
 }  // namespace
@@ -222,10 +182,7 @@ struct DriveEmulator::Drive {
       s_qs = -1, s_max = -1, s_rated = -1, s_sync = -1, s_period = -1;
   std::array<int, kEmulatedConsumerHeartbeats> s_hb_cons{};
 
-  bool refuse_dummies = false;  // DriveEmulatorConfig::refuse_dummy_mapping
-  bool fd = false;              // DriveEmulatorConfig::fd
-  std::array<Pdo, kEmulatedPdos> rpdo{};
-  std::array<Pdo, kEmulatedPdos> tpdo{};
+  canopen::PdoEngine pdos;
 
   EmulatedNmt nmt = EmulatedNmt::kInitialisation;
   Cia402State state = Cia402State::kNotReadyToSwitchOn;
@@ -279,8 +236,7 @@ struct DriveEmulator::Drive {
     namespace od = fw::od;
     index = joint;
     dict.set_absent(c.absent_objects);
-    refuse_dummies = c.refuse_dummy_mapping;
-    fd = c.fd;
+    pdos.configure({c.fd, c.refuse_dummy_mapping});
     sdo_server.configure(c.drives[static_cast<std::size_t>(joint)].node_id,
                          {c.segmented_upload, c.upload_without_size});
     cfg = c.drives[static_cast<std::size_t>(joint)];
@@ -328,84 +284,8 @@ struct DriveEmulator::Drive {
     s_din = add(od::kDigitalInputs, 0);
     add(od::kSupportedDriveModes, fw::supported_mode_bit(fw::ModeOfOperation::kCyclicSyncTorque));
     // PDO records (CiA 301 7.5.2.35..38): RPDO1 / TPDO1 as the contract's defaults.
-    for (std::uint8_t n = 1; n <= kEmulatedPdos; ++n) {
-      for (PdoDirection d : {PdoDirection::kRpdo, PdoDirection::kTpdo}) {
-        const bool rx = d == PdoDirection::kRpdo;
-        const fw::Function f = rx ? fw::rpdo_function(n) : fw::tpdo_function(n);
-        add(od::pdo_communication_count(d, n), od::kPdoSubEventTimer);
-        add(od::pdo_cob_id(d, n), fw::pdo_cob_id_value(fw::cob_id(f, node), n == 1));
-        add(od::pdo_transmission_type(d, n),
-            n == 1 ? fw::kTransmissionSyncEvery : fw::kTransmissionEventProfile);
-        add(od::pdo_inhibit_time(d, n), 0);
-        add(od::pdo_event_timer(d, n), 0);
-        const fw::PdoLayout& l = rx ? fw::kRpdo1Layout : fw::kTpdo1Layout;
-        add(od::pdo_mapping_count(d, n), n == 1 ? l.count : 0);
-        for (std::uint8_t s = 1; s <= od::kPdoMaxMappedObjects; ++s)
-          add(od::pdo_mapping_entry(d, n, s),
-              (n == 1 && s <= l.count) ? fw::encode_mapping(l.entries[s - 1u]) : 0u);
-      }
-    }
-    for (std::uint8_t n = 1; n <= kEmulatedPdos; ++n) {
-      rebuild(PdoDirection::kRpdo, n);
-      rebuild(PdoDirection::kTpdo, n);
-    }
-  }
-
-  // ---- PDOs ----
-  void rebuild(PdoDirection d, std::uint8_t n) noexcept {
-    const bool rx = d == PdoDirection::kRpdo;
-    Pdo& p = rx ? rpdo[n - 1u] : tpdo[n - 1u];
-    p = Pdo{};
-    const std::uint32_t cob = u(find(fw::od::pdo_cob_id(d, n)));
-    p.valid = (cob & fw::kPdoCobIdInvalid) == 0;
-    p.cob = static_cast<std::uint16_t>(cob & fw::kMaxStandardId);
-    p.type = static_cast<std::uint8_t>(u(find(fw::od::pdo_transmission_type(d, n))));
-    p.event_ms = static_cast<std::uint16_t>(u(find(fw::od::pdo_event_timer(d, n))));
-    if (!rx) p.inhibit_ns = u(find(fw::od::pdo_inhibit_time(d, n))) * 100'000ull;
-    const auto count = static_cast<std::uint8_t>(std::min<std::uint32_t>(
-        u(find(fw::od::pdo_mapping_count(d, n))), fw::od::kPdoMaxMappedObjects));
-    std::uint32_t bits = 0;
-    for (std::uint8_t s = 1; s <= count; ++s) {
-      const fw::PdoMapEntry e = fw::decode_mapping(u(find(fw::od::pdo_mapping_entry(d, n, s))));
-      MapRef m;
-      m.bytes = static_cast<std::uint8_t>(e.bits / 8);
-      if (!fw::is_dummy(e)) {
-        m.slot = find(e.index, e.subindex);
-        if (m.slot < 0) return;  // checked when sub0 was written; never from defaults
-        if (e.index == fw::od::kTargetTorque.index) p.maps_torque = true;
-      }
-      bits += e.bits;
-      p.map[s - 1u] = m;
-    }
-    p.count = count;
-    p.bytes = static_cast<std::uint8_t>((bits + 7) / 8);
-  }
-
-  std::uint32_t check_mapping(PdoDirection d, std::uint8_t n, std::uint32_t count) const noexcept {
-    const bool rx = d == PdoDirection::kRpdo;
-    if (count > fw::od::kPdoMaxMappedObjects) return abort_value(SdoAbortCode::kMappingTooLong);
-    std::uint32_t bits = 0;
-    for (std::uint8_t s = 1; s <= count; ++s) {
-      const fw::PdoMapEntry e = fw::decode_mapping(u(find(fw::od::pdo_mapping_entry(d, n, s))));
-      if (fw::is_dummy(e)) {
-        // Dummies only in RPDOs, with the type's own length (CiA 301 7.4.7.1).
-        const auto t = static_cast<fw::DataType>(e.index);
-        if (!rx || e.bits != 8 * fw::size_of(t)) return abort_value(SdoAbortCode::kCannotBeMapped);
-      } else {
-        const int slot = find(e.index, e.subindex);
-        if (slot < 0) return abort_value(SdoAbortCode::kObjectDoesNotExist);
-        const OdEntry& o = dict.entry(slot);
-        const bool writable = o.access == fw::Access::kRw || o.access == fw::Access::kWo;
-        const bool readable = o.access != fw::Access::kWo;
-        if (!o.pdo_mappable || e.bits != o.bits() || (rx && !writable) || (!rx && !readable))
-          return abort_value(SdoAbortCode::kCannotBeMapped);
-      }
-      bits += e.bits;
-    }
-    // A classic PDO ends at 8 bytes; a CAN FD drive's at 64 (CiA 1301).
-    if (bits > 8u * (fd ? fw::kFdMaxBytes : fw::kClassicMaxBytes))
-      return abort_value(SdoAbortCode::kMappingTooLong);
-    return kNoAbort;
+    canopen::PdoEngine::add_objects(dict, node);
+    pdos.rebuild(dict);
   }
 
   // ---- value checks for SDO downloads (CiA 301 table 22 codes) ----
@@ -438,43 +318,7 @@ struct DriveEmulator::Drive {
                  : abort_value(SdoAbortCode::kInvalidValue);
     if (e.same_object(fo::kRatedTorque.index, 0) || e.index == fo::kEncoderIncrements.index)
       return v == 0 ? abort_value(SdoAbortCode::kValueTooLow) : kNoAbort;
-    if (is_pdo_parameter(e.index)) return check_pdo_write(e, v);
-    return kNoAbort;
-  }
-
-  std::uint32_t check_pdo_write(const OdEntry& e, std::uint32_t v) const noexcept {
-    namespace fo = fw::od;
-    const bool comm = e.index < fo::kRpdoMappingBase ||
-                      (e.index >= fo::kTpdoCommunicationBase && e.index < fo::kTpdoMappingBase);
-    const bool rx = e.index < fo::kTpdoCommunicationBase;
-    const PdoDirection d = rx ? PdoDirection::kRpdo : PdoDirection::kTpdo;
-    const std::uint16_t base = comm ? (rx ? fo::kRpdoCommunicationBase : fo::kTpdoCommunicationBase)
-                                    : (rx ? fo::kRpdoMappingBase : fo::kTpdoMappingBase);
-    const auto n = static_cast<std::uint8_t>(e.index - base + 1);
-    const Pdo& p = rx ? rpdo[n - 1u] : tpdo[n - 1u];
-    if (comm) {
-      if (e.subindex == fo::kPdoSubCobId) {
-        if (v & (1u << 29)) return abort_value(SdoAbortCode::kInvalidValue);  // 29-bit id
-        const bool new_valid = (v & fw::kPdoCobIdInvalid) == 0;
-        // CiA 301 7.5.2.35: the COB-ID may not change while the PDO stays valid.
-        if (p.valid && new_valid && (v & fw::kMaxStandardId) != p.cob)
-          return abort_value(SdoAbortCode::kInvalidValue);
-        return kNoAbort;
-      }
-      if (e.subindex == fo::kPdoSubTransmissionType)
-        return (v <= 240 || v >= fw::kTransmissionEventManufacturer)
-                   ? kNoAbort
-                   : abort_value(SdoAbortCode::kInvalidValue);
-      return kNoAbort;
-    }
-    // Mapping (CiA 301 7.5.2.36): only while the PDO is not valid; entries only with sub0 = 0.
-    if (p.valid) return abort_value(SdoAbortCode::kUnsupportedAccess);
-    if (e.subindex == 0) return v == 0 ? kNoAbort : check_mapping(d, n, v);
-    if (u(find(fo::pdo_mapping_count(d, n))) != 0)
-      return abort_value(SdoAbortCode::kUnsupportedAccess);
-    if (refuse_dummies && fw::is_dummy(fw::decode_mapping(v)))
-      return abort_value(SdoAbortCode::kCannotBeMapped);
-    return kNoAbort;
+    return pdos.check_write(dict, e, v);
   }
 
   // ---- output ----
@@ -657,11 +501,8 @@ struct DriveEmulator::Drive {
     } else if (e.index == fw::od::kConsumerHeartbeatCount.index) {
       hb_armed.fill(false);
       hb_lost.fill(false);
-    } else if (is_pdo_parameter(e.index)) {
-      for (std::uint8_t n = 1; n <= kEmulatedPdos; ++n) {
-        rebuild(PdoDirection::kRpdo, n);
-        rebuild(PdoDirection::kTpdo, n);
-      }
+    } else if (canopen::PdoEngine::is_parameter(e.index)) {
+      pdos.rebuild(dict);
     }
   }
 
@@ -684,10 +525,7 @@ struct DriveEmulator::Drive {
 
   // ---- NMT ----
   void reset_communication_state(std::uint64_t now) noexcept {
-    for (std::uint8_t n = 1; n <= kEmulatedPdos; ++n) {
-      rebuild(PdoDirection::kRpdo, n);
-      rebuild(PdoDirection::kTpdo, n);
-    }
+    pdos.rebuild(dict);
     sdo_server.reset();
     hb_armed.fill(false);
     hb_lost.fill(false);
@@ -723,10 +561,7 @@ struct DriveEmulator::Drive {
       abort_connection(emu, fw::emcy::kCommunication);
     wd_armed = false;
     wd_missed = 0;
-    for (Pdo& p : rpdo) {
-      p.pending = false;
-      p.deadline_armed = false;
-    }
+    pdos.stop();
   }
   void on_nmt(DriveEmulator& emu, fw::NmtCommand c, std::uint64_t now) noexcept {
     if (nmt == EmulatedNmt::kInitialisation) return;
@@ -784,92 +619,53 @@ struct DriveEmulator::Drive {
     counters.sdo_aborts_sent += sdo_server.aborts_sent() - aborts;
   }
 
-  // ---- PDO traffic ----
-  void write_mapped(DriveEmulator& emu, const Pdo& p, const std::uint8_t* data,
-                    std::uint64_t now) noexcept {
-    std::size_t off = 0;
-    for (std::uint8_t k = 0; k < p.count; ++k) {
-      const MapRef& m = p.map[k];
-      if (m.slot >= 0) {
-        set(m.slot, fw::get_uint_le(data + off, m.bytes));
-        after_write(emu, m.slot, now);
+  // ---- PDO engine (sim/canopen/pdo_engine.hpp) ----
+  // The drive behind the engine: TPDOs out (or dropped by drop_tpdos), effects of RPDO writes.
+  struct PdoAdapter final : canopen::PdoHooks {
+    PdoAdapter(Drive& d, DriveEmulator& e) noexcept : drive(d), emu(e) {}
+    void transmit(const fw::CanFrame& f) noexcept override {
+      if (drive.drop_tpdos > 0) {
+        if (drive.drop_tpdos != DriveEmulator::kForever) --drive.drop_tpdos;
+        ++drive.counters.tpdos_dropped;
+        return;
       }
-      off += m.bytes;
+      drive.send(emu, f);
+      ++drive.counters.tpdos_sent;
     }
-  }
+    void written(int slot, std::uint64_t now) noexcept override {
+      drive.after_write(emu, slot, now);
+    }
+    void before_sample() noexcept override { drive.refresh(emu); }
+    Drive& drive;
+    DriveEmulator& emu;
+  };
   // True when the frame was one of this drive's RPDOs.
   bool on_rpdo(DriveEmulator& emu, const fw::CanFrame& frame, std::uint64_t now) noexcept {
-    bool mine = false;
-    for (Pdo& p : rpdo) {
-      if (!p.valid || p.count == 0 || p.cob != frame.id) continue;
-      if (frame.fd && !fd) continue;  // a classic drive cannot receive an FD frame
-      mine = true;
-      if (nmt != EmulatedNmt::kOperational) continue;  // PDOs only in Operational
-      if (frame.dlc < p.bytes) {
-        ++counters.rpdo_length_errors;
-        if (!pdo_length_error) {  // 8210h once per occurrence; the data is not used
-          pdo_length_error = true;
-          raise_error(emu, fw::emcy::kPdoLengthError);
-        }
-        continue;
-      }
-      ++counters.rpdos;
-      if (pdo_length_error) {  // a correct RPDO: the condition is gone
-        pdo_length_error = false;
-        error_gone(emu);
-      }
-      p.last_rx_ns = now;
-      p.deadline_armed = true;
-      if (deadline_error) {  // the RPDOs are back
-        deadline_error = false;
-        error_gone(emu);
-      }
-      if (p.maps_torque) {
-        torque_rx_since_sync = true;
-        wd_armed = true;
-      }
-      if (p.type <= 240) {  // synchronous: acted upon at the next SYNC (CiA 301 7.2.2.2)
-        p.staged = frame.data;
-        p.pending = true;
-      } else {
-        write_mapped(emu, p, frame.data.data(), now);
+    PdoAdapter hooks(*this, emu);
+    const canopen::RpdoReceipt r =
+        pdos.on_rpdo(frame, nmt == EmulatedNmt::kOperational, dict, hooks, now);
+    if (r.too_short) {
+      ++counters.rpdo_length_errors;
+      if (!pdo_length_error) {  // 8210h once per occurrence; the data is not used
+        pdo_length_error = true;
+        raise_error(emu, fw::emcy::kPdoLengthError);
       }
     }
-    return mine;
-  }
-  // The inhibit time since the last transmission has passed (CiA 301 7.5.2.37).
-  static bool inhibit_over(const Pdo& p, std::uint64_t now) noexcept {
-    return !p.sent_once || p.inhibit_ns == 0 || now - p.last_tx_ns >= p.inhibit_ns;
-  }
-  void send_tpdo(DriveEmulator& emu, Pdo& p, const PdoData& data, std::uint64_t now) noexcept {
-    p.last = data;
-    p.sent_once = true;
-    p.change_pending = false;
-    p.last_tx_ns = now;
-    if (p.event_ms != 0)
-      p.next_event_ns = now + static_cast<std::uint64_t>(p.event_ms) * 1'000'000u;
-    if (drop_tpdos > 0) {
-      if (drop_tpdos != DriveEmulator::kForever) --drop_tpdos;
-      ++counters.tpdos_dropped;
-      return;
+    if (!r.accepted) return r.mine;
+    ++counters.rpdos;
+    if (pdo_length_error) {  // a correct RPDO: the condition is gone
+      pdo_length_error = false;
+      error_gone(emu);
     }
-    // On a CAN FD drive every TPDO is an FD frame with BRS (its size rounded up to a DLC size).
-    fw::CanFrame f = fw::data_frame(p.cob, p.bytes, fd);
-    f.data = data;
-    send(emu, f);
-    ++counters.tpdos_sent;
-  }
-  PdoData tpdo_data(const Pdo& p) const noexcept {
-    PdoData data{};
-    std::size_t off = 0;
-    for (std::uint8_t k = 0; k < p.count; ++k) {
-      const MapRef& m = p.map[k];
-      std::array<std::uint8_t, 4> b{};
-      fw::put_u32_le(b.data(), u(m.slot));
-      for (std::uint8_t j = 0; j < m.bytes && off + j < data.size(); ++j) data[off + j] = b[j];
-      off += m.bytes;
+    if (deadline_error) {  // the RPDOs are back
+      deadline_error = false;
+      error_gone(emu);
     }
-    return data;
+    if (pdos.maps(PdoDirection::kRpdo, r.pdo, fw::od::kTargetTorque.index)) {
+      torque_rx_since_sync = true;
+      wd_armed = true;
+    }
+    return r.mine;
   }
 
   // ---- SYNC (see the timing in the header) ----
@@ -881,28 +677,9 @@ struct DriveEmulator::Drive {
     }
     refresh(emu);
     if (nmt == EmulatedNmt::kOperational) {
-      if (real && !silent) {
-        for (Pdo& p : tpdo) {
-          if (!p.valid || p.count == 0) continue;
-          const PdoData data = tpdo_data(p);
-          if (p.type >= 1 && p.type <= 240) {
-            if (++p.sync_count >= p.type) {
-              p.sync_count = 0;
-              send_tpdo(emu, p, data, now);
-            }
-          } else if (!p.sent_once || data != p.last) {
-            if (inhibit_over(p, now))
-              send_tpdo(emu, p, data, now);
-            else
-              p.change_pending = true;  // sent by on_time when the inhibit time ends
-          }
-        }
-      }
-      for (Pdo& p : rpdo) {
-        if (!p.pending) continue;
-        p.pending = false;
-        write_mapped(emu, p, p.staged.data(), now);
-      }
+      PdoAdapter hooks(*this, emu);
+      if (real && !silent) pdos.transmit_at_sync(dict, hooks, now);
+      pdos.latch_at_sync(dict, hooks, now);
       if (wd_armed && emu.config_.rpdo_watchdog_cycles > 0) {
         if (torque_rx_since_sync) {
           wd_missed = 0;
@@ -971,10 +748,7 @@ struct DriveEmulator::Drive {
     }
     if (nmt != EmulatedNmt::kOperational) return;
     // RPDO deadline monitoring: 1400h sub5 event timer (CiA 301 7.5.2.35).
-    for (Pdo& p : rpdo) {
-      if (!p.valid || p.event_ms == 0 || !p.deadline_armed) continue;
-      if (now - p.last_rx_ns < static_cast<std::uint64_t>(p.event_ms) * 1'000'000u) continue;
-      p.deadline_armed = false;
+    for (int expired = pdos.expired_deadlines(now); expired > 0; --expired) {
       ++counters.deadline_trips;
       deadline_error = true;
       set(s_err_reg, error_register_now());
@@ -985,17 +759,9 @@ struct DriveEmulator::Drive {
     }
     // Event-driven TPDOs: a change held back by the inhibit time, and the event timer
     // (both bounded by the inhibit time).
-    for (Pdo& p : tpdo) {
-      if (!p.valid || p.count == 0 || (p.type >= 1 && p.type <= 240) || silent) continue;
-      const bool timer = p.event_ms != 0 && now >= p.next_event_ns;
-      if (!(timer || p.change_pending) || !inhibit_over(p, now)) continue;
-      refresh(emu);
-      const PdoData data = tpdo_data(p);
-      if (timer || data != p.last) {
-        send_tpdo(emu, p, data, now);
-      } else {
-        p.change_pending = false;  // changed back within the inhibit time: nothing new
-      }
+    if (!silent) {
+      PdoAdapter hooks(*this, emu);
+      pdos.on_time(dict, hooks, now);
     }
   }
 
@@ -1013,17 +779,7 @@ struct DriveEmulator::Drive {
       if (t_ns != 0 && hb_armed[c] && !hb_lost[c]) due = std::min(due, hb_last_ns[c] + t_ns);
     }
     if (nmt != EmulatedNmt::kOperational) return std::max(due, now);
-    for (const Pdo& p : rpdo)
-      if (p.valid && p.event_ms != 0 && p.deadline_armed)
-        due = std::min(due, p.last_rx_ns + static_cast<std::uint64_t>(p.event_ms) * 1'000'000u);
-    for (const Pdo& p : tpdo) {
-      if (!p.valid || p.count == 0 || (p.type >= 1 && p.type <= 240) || silent) continue;
-      std::uint64_t t = p.change_pending ? now : kNever;
-      if (p.event_ms != 0) t = std::min(t, p.next_event_ns);
-      if (t != kNever && p.sent_once && p.inhibit_ns != 0)
-        t = std::max(t, p.last_tx_ns + p.inhibit_ns);
-      due = std::min(due, t);
-    }
+    due = std::min(due, pdos.next_due_ns(now, !silent));
     return std::max(due, now);
   }
 
