@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "sim/canopen/emcy_producer.hpp"
+#include "sim/canopen/nmt_slave.hpp"
 #include "sim/canopen/object_dictionary.hpp"
 #include "sim/canopen/pdo_engine.hpp"
 #include "sim/canopen/sdo_server.hpp"
@@ -28,28 +30,6 @@ constexpr std::uint32_t abort_value(SdoAbortCode c) noexcept {
 
 using canopen::as_signed;
 using canopen::mask_of;
-
-// 1001h error register bits for an EMCY error code's class (CiA 301 7.5.2.2).
-constexpr std::uint8_t error_register_for(std::uint16_t code) noexcept {
-  std::uint8_t r = fw::error_register::kGeneric;
-  switch (code >> 12) {
-    case 0x2:
-      r |= fw::error_register::kCurrent;
-      break;
-    case 0x3:
-      r |= fw::error_register::kVoltage;
-      break;
-    case 0x4:
-      r |= fw::error_register::kTemperature;
-      break;
-    case 0x8:
-      r |= fw::error_register::kCommunication;
-      break;
-    default:
-      break;
-  }
-  return r;
-}
 
 // The objects a foreign drive may lack (DriveEmulatorConfig::absent_objects).
 bool may_be_absent(std::uint16_t index) noexcept {
@@ -184,7 +164,8 @@ struct DriveEmulator::Drive {
 
   canopen::PdoEngine pdos;
 
-  EmulatedNmt nmt = EmulatedNmt::kInitialisation;
+  canopen::NmtSlave nmt;       // with the heartbeat producer 1017h
+  canopen::EmcyProducer emcy;  // and the error register 1001h
   Cia402State state = Cia402State::kNotReadyToSwitchOn;
   std::uint8_t last_transition = 0;
   std::uint16_t prev_cw = 0;  // bit 7 edge detection
@@ -193,16 +174,20 @@ struct DriveEmulator::Drive {
   double torque_nm = 0.0;
 
   // NMT error control.
-  std::uint64_t next_hb_ns = 0;
   std::array<std::uint64_t, kEmulatedConsumerHeartbeats> hb_last_ns{};
   std::array<bool, kEmulatedConsumerHeartbeats> hb_armed{};
   std::array<bool, kEmulatedConsumerHeartbeats> hb_lost{};
 
-  // Error conditions behind the error register 1001h (each sends its EMCY when it starts
-  // and EMCY 0000h with the remaining register when it is gone, CiA 301 7.2.7.1).
-  bool pdo_length_error = false;  // 8210h: an RPDO shorter than its mapping
-  bool deadline_error = false;    // 8250h: the RPDO deadline (1400h sub5) expired
-  bool fault_cause = false;       // hold_fault(): transition 15 refused while set
+  // Error conditions behind the error register 1001h (canopen::EmcyProducer: each sends its
+  // EMCY when it starts and EMCY 0000h with the remaining register when it is gone).
+  enum Condition : int {
+    kFaultCondition,                                            // CiA 402 Fault, with 603Fh
+    kHeartbeatLost,                                             // + consumer 0..1 (8130h)
+    kPdoLength = kHeartbeatLost + kEmulatedConsumerHeartbeats,  // 8210h: RPDO too short
+    kDeadline,  // 8250h: the RPDO deadline (1400h sub5) expired
+    kWatchdog,  // 8250h: the SYNC-counted RPDO watchdog tripped
+  };
+  bool fault_cause = false;  // hold_fault(): transition 15 refused while set
 
   // RPDO watchdog.
   bool wd_armed = false;
@@ -251,6 +236,8 @@ struct DriveEmulator::Drive {
     for (std::uint8_t s = 1; s <= kEmulatedConsumerHeartbeats; ++s)
       s_hb_cons[s - 1u] = add(od::consumer_heartbeat(s), s == 1 ? c.consumer_heartbeat : 0u);
     s_hb_prod = add(od::kProducerHeartbeat, c.producer_heartbeat_ms);
+    nmt.attach(node, s_hb_prod);
+    emcy.attach(node, s_err_reg);
     // Every record has sub0, the highest sub-index supported (CiA 301 7.4.3).
     add(od::kIdentityCount, od::kIdentitySerial.subindex);
     add(od::kIdentityVendorId, c.vendor_id);
@@ -322,40 +309,40 @@ struct DriveEmulator::Drive {
   }
 
   // ---- output ----
-  bool can_talk() const noexcept { return !silent && nmt != EmulatedNmt::kInitialisation; }
+  // The drive's frames to the bus (none while silent).
+  struct Sink final : canopen::FrameSink {
+    Sink(Drive& d, DriveEmulator& e) noexcept : drive(d), emu(e) {}
+    void send(const fw::CanFrame& f) noexcept override { drive.send(emu, f); }
+    Drive& drive;
+    DriveEmulator& emu;
+  };
+  EmulatedNmt nmt_state() const noexcept {
+    switch (nmt.state()) {
+      case canopen::NmtSlaveState::kInitialisation:
+        return EmulatedNmt::kInitialisation;
+      case canopen::NmtSlaveState::kPreOperational:
+        return EmulatedNmt::kPreOperational;
+      case canopen::NmtSlaveState::kOperational:
+        return EmulatedNmt::kOperational;
+      case canopen::NmtSlaveState::kStopped:
+        return EmulatedNmt::kStopped;
+    }
+    return EmulatedNmt::kInitialisation;
+  }
   void send(DriveEmulator& emu, const fw::Result<fw::CanFrame>& frame) noexcept {
     if (!frame || silent) return;
     if (emu.bus_.send(*frame) != drivers::BusStatus::kOk) ++counters.tx_failures;
   }
-  void send_emcy(DriveEmulator& emu, std::uint16_t code) noexcept {
-    // EMCY in Pre-operational and Operational only (CiA 301 7.3.2.2, table 75).
-    if (!can_talk() || nmt == EmulatedNmt::kStopped) return;
-    fw::Emcy e;
-    e.node = node;
-    e.error_code = code;
-    e.error_register = static_cast<std::uint8_t>(u(s_err_reg));
-    send(emu, fw::encode_emcy(e));
-    ++counters.emcy_sent;
-  }
-  // 1001h from the conditions still present.
-  std::uint8_t error_register_now() const noexcept {
-    std::uint8_t r = 0;
-    if (state == Cia402State::kFault || state == Cia402State::kFaultReactionActive)
-      r |= error_register_for(static_cast<std::uint16_t>(u(s_err)));
-    if (hb_lost[0] || hb_lost[1]) r |= error_register_for(fw::emcy::kHeartbeatError);
-    if (pdo_length_error) r |= error_register_for(fw::emcy::kPdoLengthError);
-    if (deadline_error || wd_tripped) r |= error_register_for(fw::emcy::kRpdoTimeout);
-    return r;
-  }
-  // An error condition started: 1001h updated, then its EMCY (carrying 1001h).
-  void raise_error(DriveEmulator& emu, std::uint16_t code) noexcept {
-    set(s_err_reg, error_register_now());
-    send_emcy(emu, code);
+  // An error condition started: 1001h updated, then its EMCY (carrying 1001h) when
+  // `announce` and NMT allows EMCY (Pre-operational, Operational: CiA 301 table 75).
+  void raise(DriveEmulator& emu, int condition, std::uint16_t code, bool announce = true) noexcept {
+    Sink sink(*this, emu);
+    emcy.raise(dict, condition, code, announce && !silent && nmt.emcy_allowed(), sink);
   }
   // An error condition is gone: EMCY 0000h "error reset" with the remaining 1001h.
-  void error_gone(DriveEmulator& emu) noexcept {
-    set(s_err_reg, error_register_now());
-    send_emcy(emu, fw::emcy::kNoError);
+  void gone(DriveEmulator& emu, int condition, bool announce = true) noexcept {
+    Sink sink(*this, emu);
+    emcy.clear(dict, condition, announce && !silent && nmt.emcy_allowed(), sink);
   }
   // ---- CiA 402 ----
   std::uint16_t statusword(bool estop_input) const noexcept {
@@ -425,7 +412,7 @@ struct DriveEmulator::Drive {
       set_state(emu, Cia402State::kFaultReactionActive, 13);
       set_state(emu, Cia402State::kFault, 14);  // no reaction ramp modelled: torque is off
     }
-    raise_error(emu, code);
+    raise(emu, kFaultCondition, code);
   }
 
   // Transition 15; refused (the drive stays in Fault) while the cause remains.
@@ -436,7 +423,7 @@ struct DriveEmulator::Drive {
     }
     set_state(emu, Cia402State::kSwitchOnDisabled, 15);
     set(s_err, fw::emcy::kNoError);
-    error_gone(emu);
+    gone(emu, kFaultCondition);
   }
 
   // The controlword 6040h was written (SDO, or an RPDO acting now / at SYNC).
@@ -497,10 +484,11 @@ struct DriveEmulator::Drive {
       set(s_mode_disp, u(s_mode));
       set(s_sw, statusword(estop_input()));
     } else if (slot == s_hb_prod) {
-      next_hb_ns = now + static_cast<std::uint64_t>(u(s_hb_prod)) * 1'000'000u;
+      nmt.producer_time_written(dict, now);
     } else if (e.index == fw::od::kConsumerHeartbeatCount.index) {
       hb_armed.fill(false);
       hb_lost.fill(false);
+      for (int c = 0; c < kEmulatedConsumerHeartbeats; ++c) gone(emu, kHeartbeatLost + c, false);
     } else if (canopen::PdoEngine::is_parameter(e.index)) {
       pdos.rebuild(dict);
     }
@@ -524,69 +512,60 @@ struct DriveEmulator::Drive {
   }
 
   // ---- NMT ----
-  void reset_communication_state(std::uint64_t now) noexcept {
+  void reset_communication_state(DriveEmulator& emu, std::uint64_t now) noexcept {
     pdos.rebuild(dict);
     sdo_server.reset();
     hb_armed.fill(false);
     hb_lost.fill(false);
-    pdo_length_error = false;
-    deadline_error = false;
+    // The communication's error conditions end with it, silently (1001h keeps a fault).
+    for (int c = kHeartbeatLost; c <= kWatchdog; ++c) gone(emu, c, false);
     wd_armed = false;
     wd_missed = 0;
     wd_tripped = false;
     torque_rx_since_sync = false;
-    next_hb_ns = now + static_cast<std::uint64_t>(u(s_hb_prod)) * 1'000'000u;
+    nmt.producer_time_written(dict, now);
   }
   // Power-on or reset node: the whole dictionary and the CiA 402 state machine restart.
   void reset_application(DriveEmulator& emu, std::uint64_t now) noexcept {
     dict.reset(0x0000, 0xFFFF);
+    emcy.reset();
     set(s_din, hw_inputs);
     prev_cw = 0;
     set_state(emu, Cia402State::kNotReadyToSwitchOn, 0);
     set_state(emu, Cia402State::kSwitchOnDisabled, 1);
-    reset_communication_state(now);
+    reset_communication_state(emu, now);
   }
   void boot_up(DriveEmulator& emu, std::uint64_t now) noexcept {
     boot_pending = false;
     if (refuse_boot) {
-      nmt = EmulatedNmt::kInitialisation;  // stays silent
+      nmt.hold_in_initialisation();  // stays silent
       return;
     }
-    nmt = EmulatedNmt::kPreOperational;
-    send(emu, fw::encode_heartbeat(node, fw::NmtState::kBootUp));
-    next_hb_ns = now + static_cast<std::uint64_t>(u(s_hb_prod)) * 1'000'000u;
+    Sink sink(*this, emu);
+    nmt.boot_up(dict, now, sink);
   }
   void leave_operational(DriveEmulator& emu) noexcept {
-    if (nmt == EmulatedNmt::kOperational && state == Cia402State::kOperationEnabled)
+    if (nmt_state() == EmulatedNmt::kOperational && state == Cia402State::kOperationEnabled)
       abort_connection(emu, fw::emcy::kCommunication);
     wd_armed = false;
     wd_missed = 0;
     pdos.stop();
   }
+  // NMT (canopen::NmtSlave). The 6007h reaction to leaving Operational happens before the
+  // state changes, so its EMCY still goes out.
   void on_nmt(DriveEmulator& emu, fw::NmtCommand c, std::uint64_t now) noexcept {
-    if (nmt == EmulatedNmt::kInitialisation) return;
-    switch (c) {
-      case fw::NmtCommand::kStart:
-        nmt = EmulatedNmt::kOperational;
-        break;
-      case fw::NmtCommand::kStop:
-        leave_operational(emu);
-        nmt = EmulatedNmt::kStopped;
-        break;
-      case fw::NmtCommand::kEnterPreOperational:
-        leave_operational(emu);
-        nmt = EmulatedNmt::kPreOperational;
-        break;
-      case fw::NmtCommand::kResetNode:
-        reset_application(emu, now);
-        boot_up(emu, now);
-        break;
-      case fw::NmtCommand::kResetCommunication:
-        leave_operational(emu);
-        dict.reset(0x1000, 0x1FFF);
-        reset_communication_state(now);
-        boot_up(emu, now);
-        break;
+    if (nmt_state() == EmulatedNmt::kInitialisation) return;
+    if (c == fw::NmtCommand::kStop || c == fw::NmtCommand::kEnterPreOperational ||
+        c == fw::NmtCommand::kResetCommunication)
+      leave_operational(emu);
+    const canopen::NmtChange change = nmt.on_command(c);
+    if (change.reset_application) {
+      reset_application(emu, now);
+      boot_up(emu, now);
+    } else if (change.reset_communication) {
+      dict.reset(0x1000, 0x1FFF);
+      reset_communication_state(emu, now);
+      boot_up(emu, now);
     }
   }
 
@@ -643,24 +622,16 @@ struct DriveEmulator::Drive {
   bool on_rpdo(DriveEmulator& emu, const fw::CanFrame& frame, std::uint64_t now) noexcept {
     PdoAdapter hooks(*this, emu);
     const canopen::RpdoReceipt r =
-        pdos.on_rpdo(frame, nmt == EmulatedNmt::kOperational, dict, hooks, now);
+        pdos.on_rpdo(frame, nmt_state() == EmulatedNmt::kOperational, dict, hooks, now);
     if (r.too_short) {
       ++counters.rpdo_length_errors;
-      if (!pdo_length_error) {  // 8210h once per occurrence; the data is not used
-        pdo_length_error = true;
-        raise_error(emu, fw::emcy::kPdoLengthError);
-      }
+      // 8210h once per occurrence; the data is not used.
+      if (!emcy.active(kPdoLength)) raise(emu, kPdoLength, fw::emcy::kPdoLengthError);
     }
     if (!r.accepted) return r.mine;
     ++counters.rpdos;
-    if (pdo_length_error) {  // a correct RPDO: the condition is gone
-      pdo_length_error = false;
-      error_gone(emu);
-    }
-    if (deadline_error) {  // the RPDOs are back
-      deadline_error = false;
-      error_gone(emu);
-    }
+    gone(emu, kPdoLength);  // a correct RPDO: the condition is gone
+    gone(emu, kDeadline);   // the RPDOs are back
     if (pdos.maps(PdoDirection::kRpdo, r.pdo, fw::od::kTargetTorque.index)) {
       torque_rx_since_sync = true;
       wd_armed = true;
@@ -671,12 +642,12 @@ struct DriveEmulator::Drive {
   // ---- SYNC (see the timing in the header) ----
   void on_sync(DriveEmulator& emu, std::uint64_t now, bool real) noexcept {
     ++counters.syncs;
-    if (nmt == EmulatedNmt::kInitialisation) {
+    if (nmt_state() == EmulatedNmt::kInitialisation) {
       torque_nm = 0.0;
       return;
     }
     refresh(emu);
-    if (nmt == EmulatedNmt::kOperational) {
+    if (nmt_state() == EmulatedNmt::kOperational) {
       PdoAdapter hooks(*this, emu);
       if (real && !silent) pdos.transmit_at_sync(dict, hooks, now);
       pdos.latch_at_sync(dict, hooks, now);
@@ -685,10 +656,11 @@ struct DriveEmulator::Drive {
           wd_missed = 0;
           if (wd_tripped) {
             wd_tripped = false;
-            if (!deadline_error) error_gone(emu);
+            gone(emu, kWatchdog, !emcy.active(kDeadline));
           }
         } else if (++wd_missed >= emu.config_.rpdo_watchdog_cycles && !wd_tripped) {
           wd_tripped = true;
+          raise(emu, kWatchdog, fw::emcy::kRpdoTimeout, false);  // the fault below reports it
           ++counters.watchdog_trips;
           if (state == Cia402State::kOperationEnabled) enter_fault(emu, fw::emcy::kRpdoTimeout);
         }
@@ -719,19 +691,11 @@ struct DriveEmulator::Drive {
       reset_application(emu, now);
       boot_up(emu, now);
     }
-    if (nmt == EmulatedNmt::kInitialisation) return;
-    // Heartbeat producer 1017h.
-    const std::uint64_t hb_ns = static_cast<std::uint64_t>(u(s_hb_prod)) * 1'000'000u;
-    if (hb_ns != 0 && now >= next_hb_ns) {
-      fw::NmtState s = fw::NmtState::kPreOperational;
-      if (nmt == EmulatedNmt::kOperational) s = fw::NmtState::kOperational;
-      if (nmt == EmulatedNmt::kStopped) s = fw::NmtState::kStopped;
-      if (!silent) {
-        send(emu, fw::encode_heartbeat(node, s));
-        ++counters.heartbeats_sent;
-      }
-      next_hb_ns += hb_ns;
-      if (next_hb_ns <= now) next_hb_ns = now + hb_ns;
+    if (nmt_state() == EmulatedNmt::kInitialisation) return;
+    // Heartbeat producer 1017h (canopen::NmtSlave).
+    {
+      Sink sink(*this, emu);
+      if (nmt.on_time(dict, now, sink) && !silent) ++counters.heartbeats_sent;
     }
     // Heartbeat consumer 1016h: a silence of >= the consumer time is a heartbeat event.
     for (std::size_t c = 0; c < kEmulatedConsumerHeartbeats; ++c) {
@@ -740,21 +704,19 @@ struct DriveEmulator::Drive {
       if (t_ns == 0 || !hb_armed[c] || hb_lost[c] || now - hb_last_ns[c] < t_ns) continue;
       hb_lost[c] = true;
       ++counters.heartbeat_losses;
-      set(s_err_reg, error_register_now());
-      if (static_cast<fw::AbortConnectionOption>(i(s_abort)) !=
-          fw::AbortConnectionOption::kFaultSignal)
-        send_emcy(emu, fw::emcy::kHeartbeatError);
+      // With 6007h = fault signal the fault's own EMCY reports it.
+      raise(emu, kHeartbeatLost + static_cast<int>(c), fw::emcy::kHeartbeatError,
+            static_cast<fw::AbortConnectionOption>(i(s_abort)) !=
+                fw::AbortConnectionOption::kFaultSignal);
       abort_connection(emu, fw::emcy::kHeartbeatError);
     }
-    if (nmt != EmulatedNmt::kOperational) return;
+    if (nmt_state() != EmulatedNmt::kOperational) return;
     // RPDO deadline monitoring: 1400h sub5 event timer (CiA 301 7.5.2.35).
     for (int expired = pdos.expired_deadlines(now); expired > 0; --expired) {
       ++counters.deadline_trips;
-      deadline_error = true;
-      set(s_err_reg, error_register_now());
-      if (static_cast<fw::AbortConnectionOption>(i(s_abort)) !=
-          fw::AbortConnectionOption::kFaultSignal)
-        send_emcy(emu, fw::emcy::kRpdoTimeout);
+      raise(emu, kDeadline, fw::emcy::kRpdoTimeout,
+            static_cast<fw::AbortConnectionOption>(i(s_abort)) !=
+                fw::AbortConnectionOption::kFaultSignal);
       abort_connection(emu, fw::emcy::kRpdoTimeout);
     }
     // Event-driven TPDOs: a change held back by the inhibit time, and the event timer
@@ -769,16 +731,15 @@ struct DriveEmulator::Drive {
   // on_time above (kNever when nothing is scheduled): a caller may sleep until then.
   std::uint64_t next_due_ns(std::uint64_t now) const noexcept {
     if (boot_pending && !refuse_boot) return now;
-    if (nmt == EmulatedNmt::kInitialisation) return kNever;
+    if (nmt_state() == EmulatedNmt::kInitialisation) return kNever;
     std::uint64_t due = kNever;
-    const std::uint64_t hb_ns = static_cast<std::uint64_t>(u(s_hb_prod)) * 1'000'000u;
-    if (hb_ns != 0) due = std::min(due, next_hb_ns);
+    due = std::min(due, nmt.next_due_ns(dict));
     for (std::size_t c = 0; c < kEmulatedConsumerHeartbeats; ++c) {
       const std::uint64_t t_ns =
           static_cast<std::uint64_t>(fw::consumer_heartbeat_time_ms(u(s_hb_cons[c]))) * 1'000'000u;
       if (t_ns != 0 && hb_armed[c] && !hb_lost[c]) due = std::min(due, hb_last_ns[c] + t_ns);
     }
-    if (nmt != EmulatedNmt::kOperational) return std::max(due, now);
+    if (nmt_state() != EmulatedNmt::kOperational) return std::max(due, now);
     due = std::min(due, pdos.next_due_ns(now, !silent));
     return std::max(due, now);
   }
@@ -792,7 +753,7 @@ struct DriveEmulator::Drive {
       hb_armed[c] = true;  // monitoring starts with the first heartbeat (CiA 301)
       if (hb_lost[c]) {
         hb_lost[c] = false;
-        error_gone(emu);  // 0000h with what remains in 1001h (e.g. a fault)
+        gone(emu, kHeartbeatLost + static_cast<int>(c));  // 0000h with what remains in 1001h
       }
     }
   }
@@ -901,10 +862,10 @@ void DriveEmulator::on_frame(const fw::CanFrame& frame, std::uint64_t now_ns) no
   const fw::Result<fw::CobIdInfo> info = fw::classify(frame);
   for (int k = 0; k < n_; ++k) {
     Drive& d = *drives_[static_cast<std::size_t>(k)];
-    if (d.silent || d.nmt == EmulatedNmt::kInitialisation) continue;
+    if (d.silent || d.nmt_state() == EmulatedNmt::kInitialisation) continue;
     if (info && info->function == fw::Function::kSdoRx && info->node == d.node) {
       handled = true;
-      if (d.nmt != EmulatedNmt::kStopped) d.on_sdo(*this, frame, now_ns);
+      if (d.nmt_state() != EmulatedNmt::kStopped) d.on_sdo(*this, frame, now_ns);
       continue;
     }
     if (info && info->function == fw::Function::kHeartbeat) {
@@ -992,7 +953,7 @@ void DriveEmulator::set_refuse_boot(int drive, bool refuse) noexcept {
   if (drive < 0 || drive >= n_) return;
   Drive& d = *drives_[static_cast<std::size_t>(drive)];
   d.refuse_boot = refuse;
-  if (!refuse && d.nmt == EmulatedNmt::kInitialisation && powered_) d.boot_pending = true;
+  if (!refuse && d.nmt_state() == EmulatedNmt::kInitialisation && powered_) d.boot_pending = true;
 }
 
 void DriveEmulator::drop_tpdos(int drive, std::uint32_t n) noexcept {
@@ -1012,7 +973,7 @@ EmulatedDriveStatus DriveEmulator::status(int drive) const noexcept {
   if (drive < 0 || drive >= n_) return s;
   const Drive& d = *drives_[static_cast<std::size_t>(drive)];
   s.node_id = d.node;
-  s.nmt = d.nmt;
+  s.nmt = d.nmt_state();
   s.state = d.state;
   s.last_transition = d.last_transition;
   s.statusword = static_cast<std::uint16_t>(d.u(d.s_sw));
@@ -1027,6 +988,7 @@ EmulatedDriveStatus DriveEmulator::status(int drive) const noexcept {
   s.heartbeat_lost = d.hb_lost[0] || d.hb_lost[1];
   s.silent = d.silent;
   s.counters = d.counters;
+  s.counters.emcy_sent = d.emcy.sent();
   return s;
 }
 
