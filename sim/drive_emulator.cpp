@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "sim/canopen/cia402_slave.hpp"
 #include "sim/canopen/emcy_producer.hpp"
 #include "sim/canopen/nmt_slave.hpp"
 #include "sim/canopen/object_dictionary.hpp"
@@ -166,10 +167,7 @@ struct DriveEmulator::Drive {
 
   canopen::NmtSlave nmt;       // with the heartbeat producer 1017h
   canopen::EmcyProducer emcy;  // and the error register 1001h
-  Cia402State state = Cia402State::kNotReadyToSwitchOn;
-  std::uint8_t last_transition = 0;
-  std::uint16_t prev_cw = 0;  // bit 7 edge detection
-  bool qs_to_disabled = false;
+  canopen::Cia402Slave cia;    // the CiA 402 state machine, from firmware_if's table
   bool limit_active = false;
   double torque_nm = 0.0;
 
@@ -344,115 +342,64 @@ struct DriveEmulator::Drive {
     Sink sink(*this, emu);
     emcy.clear(dict, condition, announce && !silent && nmt.emcy_allowed(), sink);
   }
-  // ---- CiA 402 ----
+  // ---- CiA 402 (canopen::Cia402Slave; here what a state means for the drive) ----
   std::uint16_t statusword(bool estop_input) const noexcept {
-    std::uint16_t w = static_cast<std::uint16_t>(fw::statusword_bits(state) | fw::sw::kRemote);
-    if (state == Cia402State::kSwitchedOn || state == Cia402State::kOperationEnabled ||
-        state == Cia402State::kQuickStopActive)
-      w |= fw::sw::kVoltageEnabled;
-    if (state == Cia402State::kOperationEnabled && mode_is_cst()) {
-      w |= fw::sw::kDriveFollowsCommand;
-      if (limit_active) w |= fw::sw::kInternalLimitActive;
+    std::uint16_t extra = 0;
+    if (cia.state() == Cia402State::kOperationEnabled && mode_is_cst()) {
+      extra |= fw::sw::kDriveFollowsCommand;
+      if (limit_active) extra |= fw::sw::kInternalLimitActive;
     }
-    if (estop_input) w |= fw::sw::kWarning;
-    return w;
+    if (estop_input) extra |= fw::sw::kWarning;
+    return cia.statusword(extra);
   }
   bool mode_is_cst() const noexcept {
     return i(s_mode) == static_cast<std::int8_t>(fw::ModeOfOperation::kCyclicSyncTorque);
   }
   bool estop_input() const noexcept { return (u(s_din) & fw::od::kDigitalInputEstopMask) != 0; }
+  std::int16_t quick_stop_option() const noexcept { return static_cast<std::int16_t>(i(s_qs)); }
 
-  void set_state(DriveEmulator& emu, Cia402State s, std::uint8_t transition) noexcept {
-    state = s;
-    last_transition = transition;
-    if (s != Cia402State::kQuickStopActive) qs_to_disabled = false;
+  // After the state machine moved: statusword, and torque off at once outside Operation
+  // enabled (re-command the plant for the current period).
+  void state_changed(DriveEmulator& emu) noexcept {
     set(s_sw, statusword(estop_input()));
-    if (s != Cia402State::kOperationEnabled && torque_nm != 0.0) {
-      // Torque off at once: re-command the plant for the current period.
+    if (cia.state() != Cia402State::kOperationEnabled && torque_nm != 0.0) {
       torque_nm = 0.0;
       limit_active = false;
       emu.torque_[index] = 0.0;
       emu.command_plant();
     }
   }
-
-  // Quick stop active entered (transition 11 or a 6007h reaction): 605Ah decides the rest.
   void enter_quick_stop(DriveEmulator& emu) noexcept {
-    set_state(emu, Cia402State::kQuickStopActive, 11);
-    const std::int32_t opt = i(s_qs);
-    if (opt == static_cast<std::int16_t>(fw::QuickStopOption::kDisableDrive))
-      set_state(emu, Cia402State::kSwitchOnDisabled, 12);
-    else if (opt <= static_cast<std::int16_t>(fw::QuickStopOption::kVoltageLimit))
-      qs_to_disabled = true;  // "stopped" at the next SYNC (the ramp is not modelled)
+    cia.quick_stop(quick_stop_option());
+    state_changed(emu);
   }
-
-  // Disable voltage from whatever power state (transitions 7, 10, 9, 12).
   void disable_voltage(DriveEmulator& emu) noexcept {
-    switch (state) {
-      case Cia402State::kReadyToSwitchOn:
-        set_state(emu, Cia402State::kSwitchOnDisabled, 7);
-        break;
-      case Cia402State::kSwitchedOn:
-        set_state(emu, Cia402State::kSwitchOnDisabled, 10);
-        break;
-      case Cia402State::kOperationEnabled:
-        set_state(emu, Cia402State::kSwitchOnDisabled, 9);
-        break;
-      case Cia402State::kQuickStopActive:
-        set_state(emu, Cia402State::kSwitchOnDisabled, 12);
-        break;
-      default:
-        break;
-    }
+    if (cia.disable_voltage()) state_changed(emu);
   }
-
   void enter_fault(DriveEmulator& emu, std::uint16_t code) noexcept {
     set(s_err, code);
-    if (state != Cia402State::kFault) {
-      set_state(emu, Cia402State::kFaultReactionActive, 13);
-      set_state(emu, Cia402State::kFault, 14);  // no reaction ramp modelled: torque is off
-    }
+    if (cia.fault()) state_changed(emu);
     raise(emu, kFaultCondition, code);
-  }
-
-  // Transition 15; refused (the drive stays in Fault) while the cause remains.
-  void fault_reset(DriveEmulator& emu) noexcept {
-    if (fault_cause) {
-      ++counters.fault_resets_refused;
-      return;
-    }
-    set_state(emu, Cia402State::kSwitchOnDisabled, 15);
-    set(s_err, fw::emcy::kNoError);
-    gone(emu, kFaultCondition);
   }
 
   // The controlword 6040h was written (SDO, or an RPDO acting now / at SYNC).
   void on_controlword(DriveEmulator& emu) noexcept {
-    const auto cw = static_cast<std::uint16_t>(u(s_cw));
-    const bool rising_reset =
-        (cw & fw::cw::kFaultReset) != 0 && (prev_cw & fw::cw::kFaultReset) == 0;
-    prev_cw = cw;
-    using C = fw::Command;
-    switch (state) {
-      case Cia402State::kFault:
-        if (rising_reset) fault_reset(emu);  // 15, on the 0 -> 1 edge of bit 7 only
+    switch (cia.on_controlword(static_cast<std::uint16_t>(u(s_cw)), quick_stop_option(),
+                               estop_input(), fault_cause)) {
+      case canopen::ControlwordEffect::kNone:
         return;
-      case Cia402State::kNotReadyToSwitchOn:
-      case Cia402State::kFaultReactionActive:
-        return;  // the drive moves on its own
-      default:
-        break;
+      case canopen::ControlwordEffect::kFaultResetRefused:
+        ++counters.fault_resets_refused;
+        return;
+      case canopen::ControlwordEffect::kFaultReset:
+        state_changed(emu);
+        set(s_err, fw::emcy::kNoError);
+        gone(emu, kFaultCondition);
+        return;
+      case canopen::ControlwordEffect::kTransition:
+        state_changed(emu);
+        return;
     }
-    const C c = fw::decode_command(cw);
-    // The drive side of firmware_if's transition table (fw::slave_transition); 16 only where
-    // 605Ah keeps the drive in Quick stop active (5..8).
-    const bool qs_stays =
-        i(s_qs) >= static_cast<std::int16_t>(fw::QuickStopOption::kSlowDownRampStay);
-    const std::optional<fw::Transition> t = fw::slave_transition(state, c, qs_stays);
-    if (!t) return;
-    if (t->number == 2 && estop_input()) return;        // refused while the STO circuit is open
-    if (t->number == 11) return enter_quick_stop(emu);  // 605Ah decides what follows
-    set_state(emu, t->to, t->number);
   }
 
   // 6007h abort connection option (CiA 402-2): heartbeat loss, RPDO deadline, NMT events.
@@ -467,9 +414,10 @@ struct DriveEmulator::Drive {
         disable_voltage(emu);
         break;
       case fw::AbortConnectionOption::kQuickStop:
-        if (state == Cia402State::kOperationEnabled)
+        if (cia.state() == Cia402State::kOperationEnabled)
           enter_quick_stop(emu);
-        else if (state == Cia402State::kReadyToSwitchOn || state == Cia402State::kSwitchedOn)
+        else if (cia.state() == Cia402State::kReadyToSwitchOn ||
+                 cia.state() == Cia402State::kSwitchedOn)
           disable_voltage(emu);
         break;
     }
@@ -530,9 +478,8 @@ struct DriveEmulator::Drive {
     dict.reset(0x0000, 0xFFFF);
     emcy.reset();
     set(s_din, hw_inputs);
-    prev_cw = 0;
-    set_state(emu, Cia402State::kNotReadyToSwitchOn, 0);
-    set_state(emu, Cia402State::kSwitchOnDisabled, 1);
+    cia.power_on();
+    state_changed(emu);
     reset_communication_state(emu, now);
   }
   void boot_up(DriveEmulator& emu, std::uint64_t now) noexcept {
@@ -545,7 +492,7 @@ struct DriveEmulator::Drive {
     nmt.boot_up(dict, now, sink);
   }
   void leave_operational(DriveEmulator& emu) noexcept {
-    if (nmt_state() == EmulatedNmt::kOperational && state == Cia402State::kOperationEnabled)
+    if (nmt_state() == EmulatedNmt::kOperational && cia.state() == Cia402State::kOperationEnabled)
       abort_connection(emu, fw::emcy::kCommunication);
     wd_armed = false;
     wd_missed = 0;
@@ -662,17 +609,21 @@ struct DriveEmulator::Drive {
           wd_tripped = true;
           raise(emu, kWatchdog, fw::emcy::kRpdoTimeout, false);  // the fault below reports it
           ++counters.watchdog_trips;
-          if (state == Cia402State::kOperationEnabled) enter_fault(emu, fw::emcy::kRpdoTimeout);
+          if (cia.state() == Cia402State::kOperationEnabled)
+            enter_fault(emu, fw::emcy::kRpdoTimeout);
         }
       }
       torque_rx_since_sync = false;
     }
-    if (state == Cia402State::kQuickStopActive && qs_to_disabled)
-      set_state(emu, Cia402State::kSwitchOnDisabled, 12);  // the quick stop has "stopped"
+    if (cia.state() == Cia402State::kQuickStopActive) {
+      cia.on_sync();  // a quick stop with 605Ah 1..4 has "stopped" (12)
+      state_changed(emu);
+    }
     // Target torque -> N m, only in Operation enabled with mode 10 (CiA 402-2 CST).
     double tau = 0.0;
     limit_active = false;
-    if (state == Cia402State::kOperationEnabled && mode_is_cst() && !estop_input() && !wd_tripped) {
+    if (cia.state() == Cia402State::kOperationEnabled && mode_is_cst() && !estop_input() &&
+        !wd_tripped) {
       const std::int32_t target = i(s_tt);
       const auto max = static_cast<std::int32_t>(u(s_max));
       const std::int32_t clipped = std::clamp(target, -max, max);
@@ -922,9 +873,7 @@ void DriveEmulator::set_digital_inputs(int drive, std::uint32_t mask, bool on) n
   d.set(d.s_din, d.hw_inputs);
   if (d.estop_input()) {
     // STO: the power stage is off whatever the controlword says.
-    if (d.state == Cia402State::kReadyToSwitchOn || d.state == Cia402State::kSwitchedOn ||
-        d.state == Cia402State::kOperationEnabled || d.state == Cia402State::kQuickStopActive)
-      d.disable_voltage(*this);
+    d.disable_voltage(*this);  // from Ready to switch on .. Quick stop active
   }
   d.set(d.s_sw, d.statusword(d.estop_input()));
 }
@@ -974,8 +923,8 @@ EmulatedDriveStatus DriveEmulator::status(int drive) const noexcept {
   const Drive& d = *drives_[static_cast<std::size_t>(drive)];
   s.node_id = d.node;
   s.nmt = d.nmt_state();
-  s.state = d.state;
-  s.last_transition = d.last_transition;
+  s.state = d.cia.state();
+  s.last_transition = d.cia.last_transition();
   s.statusword = static_cast<std::uint16_t>(d.u(d.s_sw));
   s.controlword = static_cast<std::uint16_t>(d.u(d.s_cw));
   s.target_torque = static_cast<std::int16_t>(d.i(d.s_tt));
