@@ -9,6 +9,7 @@
 
 #include "sim/canopen/cia402_slave.hpp"
 #include "sim/canopen/emcy_producer.hpp"
+#include "sim/canopen/heartbeat_consumer.hpp"
 #include "sim/canopen/nmt_slave.hpp"
 #include "sim/canopen/object_dictionary.hpp"
 #include "sim/canopen/pdo_engine.hpp"
@@ -149,6 +150,9 @@ PlantConfig emulator_plant_config(const PlantConfig& plant, const DriveEmulatorC
   return p;
 }
 
+static_assert(kEmulatedConsumerHeartbeats == canopen::kHeartbeatConsumers,
+              "1016h sub1..n: the emulator's entries are the consumer part's");
+
 // ---- one slave ---------------------------------------------------------------------------
 
 struct DriveEmulator::Drive {
@@ -172,9 +176,7 @@ struct DriveEmulator::Drive {
   double torque_nm = 0.0;
 
   // NMT error control.
-  std::array<std::uint64_t, kEmulatedConsumerHeartbeats> hb_last_ns{};
-  std::array<bool, kEmulatedConsumerHeartbeats> hb_armed{};
-  std::array<bool, kEmulatedConsumerHeartbeats> hb_lost{};
+  canopen::HeartbeatConsumer hb_consumer;  // 1016h: the master's heartbeat
 
   // Error conditions behind the error register 1001h (canopen::EmcyProducer: each sends its
   // EMCY when it starts and EMCY 0000h with the remaining register when it is gone).
@@ -235,6 +237,7 @@ struct DriveEmulator::Drive {
       s_hb_cons[s - 1u] = add(od::consumer_heartbeat(s), s == 1 ? c.consumer_heartbeat : 0u);
     s_hb_prod = add(od::kProducerHeartbeat, c.producer_heartbeat_ms);
     nmt.attach(node, s_hb_prod);
+    hb_consumer.attach(s_hb_cons);
     emcy.attach(node, s_err_reg);
     // Every record has sub0, the highest sub-index supported (CiA 301 7.4.3).
     add(od::kIdentityCount, od::kIdentitySerial.subindex);
@@ -434,8 +437,7 @@ struct DriveEmulator::Drive {
     } else if (slot == s_hb_prod) {
       nmt.producer_time_written(dict, now);
     } else if (e.index == fw::od::kConsumerHeartbeatCount.index) {
-      hb_armed.fill(false);
-      hb_lost.fill(false);
+      hb_consumer.reset();
       for (int c = 0; c < kEmulatedConsumerHeartbeats; ++c) gone(emu, kHeartbeatLost + c, false);
     } else if (canopen::PdoEngine::is_parameter(e.index)) {
       pdos.rebuild(dict);
@@ -463,8 +465,7 @@ struct DriveEmulator::Drive {
   void reset_communication_state(DriveEmulator& emu, std::uint64_t now) noexcept {
     pdos.rebuild(dict);
     sdo_server.reset();
-    hb_armed.fill(false);
-    hb_lost.fill(false);
+    hb_consumer.reset();
     // The communication's error conditions end with it, silently (1001h keeps a fault).
     for (int c = kHeartbeatLost; c <= kWatchdog; ++c) gone(emu, c, false);
     wd_armed = false;
@@ -568,8 +569,7 @@ struct DriveEmulator::Drive {
   // True when the frame was one of this drive's RPDOs.
   bool on_rpdo(DriveEmulator& emu, const fw::CanFrame& frame, std::uint64_t now) noexcept {
     PdoAdapter hooks(*this, emu);
-    const canopen::RpdoReceipt r =
-        pdos.on_rpdo(frame, nmt_state() == EmulatedNmt::kOperational, dict, hooks, now);
+    const canopen::RpdoReceipt r = pdos.on_rpdo(frame, nmt.pdo_allowed(), dict, hooks, now);
     if (r.too_short) {
       ++counters.rpdo_length_errors;
       // 8210h once per occurrence; the data is not used.
@@ -649,11 +649,9 @@ struct DriveEmulator::Drive {
       if (nmt.on_time(dict, now, sink) && !silent) ++counters.heartbeats_sent;
     }
     // Heartbeat consumer 1016h: a silence of >= the consumer time is a heartbeat event.
-    for (std::size_t c = 0; c < kEmulatedConsumerHeartbeats; ++c) {
-      const std::uint64_t t_ns =
-          static_cast<std::uint64_t>(fw::consumer_heartbeat_time_ms(u(s_hb_cons[c]))) * 1'000'000u;
-      if (t_ns == 0 || !hb_armed[c] || hb_lost[c] || now - hb_last_ns[c] < t_ns) continue;
-      hb_lost[c] = true;
+    const unsigned lost = hb_consumer.on_time(dict, now);
+    for (int c = 0; c < kEmulatedConsumerHeartbeats; ++c) {
+      if ((lost & (1u << c)) == 0) continue;
       ++counters.heartbeat_losses;
       // With 6007h = fault signal the fault's own EMCY reports it.
       raise(emu, kHeartbeatLost + static_cast<int>(c), fw::emcy::kHeartbeatError,
@@ -685,28 +683,16 @@ struct DriveEmulator::Drive {
     if (nmt_state() == EmulatedNmt::kInitialisation) return kNever;
     std::uint64_t due = kNever;
     due = std::min(due, nmt.next_due_ns(dict));
-    for (std::size_t c = 0; c < kEmulatedConsumerHeartbeats; ++c) {
-      const std::uint64_t t_ns =
-          static_cast<std::uint64_t>(fw::consumer_heartbeat_time_ms(u(s_hb_cons[c]))) * 1'000'000u;
-      if (t_ns != 0 && hb_armed[c] && !hb_lost[c]) due = std::min(due, hb_last_ns[c] + t_ns);
-    }
+    due = std::min(due, hb_consumer.next_due_ns(dict));
     if (nmt_state() != EmulatedNmt::kOperational) return std::max(due, now);
     due = std::min(due, pdos.next_due_ns(now, !silent));
     return std::max(due, now);
   }
 
   void on_heartbeat(DriveEmulator& emu, const fw::Heartbeat& hb, std::uint64_t now) noexcept {
-    for (std::size_t c = 0; c < kEmulatedConsumerHeartbeats; ++c) {
-      const std::uint32_t v = u(s_hb_cons[c]);
-      if (fw::consumer_heartbeat_time_ms(v) == 0 || fw::consumer_heartbeat_node(v) != hb.node)
-        continue;
-      hb_last_ns[c] = now;
-      hb_armed[c] = true;  // monitoring starts with the first heartbeat (CiA 301)
-      if (hb_lost[c]) {
-        hb_lost[c] = false;
-        gone(emu, kHeartbeatLost + static_cast<int>(c));  // 0000h with what remains in 1001h
-      }
-    }
+    const unsigned back = hb_consumer.on_heartbeat(dict, hb.node, now);
+    for (int c = 0; c < kEmulatedConsumerHeartbeats; ++c)
+      if ((back & (1u << c)) != 0) gone(emu, kHeartbeatLost + c);  // 0000h, what remains in 1001h
   }
 };
 
@@ -816,7 +802,7 @@ void DriveEmulator::on_frame(const fw::CanFrame& frame, std::uint64_t now_ns) no
     if (d.silent || d.nmt_state() == EmulatedNmt::kInitialisation) continue;
     if (info && info->function == fw::Function::kSdoRx && info->node == d.node) {
       handled = true;
-      if (d.nmt_state() != EmulatedNmt::kStopped) d.on_sdo(*this, frame, now_ns);
+      if (d.nmt.sdo_allowed()) d.on_sdo(*this, frame, now_ns);
       continue;
     }
     if (info && info->function == fw::Function::kHeartbeat) {
@@ -934,7 +920,7 @@ EmulatedDriveStatus DriveEmulator::status(int drive) const noexcept {
   s.error_register = static_cast<std::uint8_t>(d.u(d.s_err_reg));
   s.digital_inputs = d.u(d.s_din);
   s.watchdog_missed = d.wd_missed;
-  s.heartbeat_lost = d.hb_lost[0] || d.hb_lost[1];
+  s.heartbeat_lost = d.hb_consumer.any_lost();
   s.silent = d.silent;
   s.counters = d.counters;
   s.counters.emcy_sent = d.emcy.sent();
