@@ -9,6 +9,8 @@
 #include <utility>
 #include <vector>
 
+#include "tests/support/allocation_counter.hpp"
+
 namespace dualv::sim::canopen {
 namespace {
 
@@ -250,6 +252,37 @@ TEST_F(Engine, RpdoDeadlineExpiresAtTheEventTime) {
   EXPECT_EQ(engine.expired_deadlines(40'000'000), 0);
   engine.latch_at_sync(od, hooks, 40'000'000);
   EXPECT_EQ(od.u(s_cw), 0u);
+}
+
+// The real-time path of the part: reception, SYNC, timers allocate nothing.
+struct Counting final : PdoHooks {
+  long sent = 0, writes = 0;
+  void transmit(const fw::CanFrame&) noexcept override { ++sent; }
+  void written(int, std::uint64_t) noexcept override { ++writes; }
+  void before_sample() noexcept override {}
+};
+
+TEST_F(EventTpdo, FramePathAllocatesNothing) {
+  EXPECT_EQ(write(0x1801, 1, 0x80000285u), 0u);
+  EXPECT_EQ(write(0x1801, 5, 2), 0u);  // event timer 2 ms
+  EXPECT_EQ(write(0x1801, 1, 0x285), 0u);
+  EXPECT_EQ(write(0x1400, 5, 3), 0u);  // RPDO deadline 3 ms
+  Counting c;
+  const fw::CanFrame rpdo = frame(0x205, {0x0F, 0x00, 0x10, 0x00});
+  dualv::test::start_counting();
+  for (std::uint64_t k = 0; k < 1000; ++k) {
+    const std::uint64_t t = k * 1'000'000;
+    if (k % 7 != 0) engine.on_rpdo(rpdo, true, od, c, t);
+    od.set(s_sw, static_cast<std::uint32_t>(k % 3));
+    engine.transmit_at_sync(od, c, t);
+    engine.latch_at_sync(od, c, t);
+    engine.on_time(od, c, t + 500'000);
+    (void)engine.expired_deadlines(t + 500'000);
+    (void)engine.next_due_ns(t);
+  }
+  EXPECT_EQ(dualv::test::stop_counting(), 0);
+  EXPECT_GT(c.sent, 1000);
+  EXPECT_GT(c.writes, 1000);
 }
 
 }  // namespace
