@@ -187,8 +187,9 @@ constexpr std::optional<Transition> find_transition(std::uint8_t number) noexcep
 }
 
 // kTransitions is the one owner of the state machine: the host side (next_transition, and
-// through it drivers/cia402_drive.hpp) and the drive side (slave_transition: the drive
-// emulator sim/drive_emulator.cpp and the tests' fake slave) are both derived from it.
+// through it drivers/cia402_drive.hpp) and the drive side (slave_transition: the CiA 402
+// slave part sim/canopen/cia402_slave.cpp, which the drive emulator and the tests' fake
+// slave are built from) are both derived from it.
 
 // Whether a drive that reads command `c` in `t.from` takes `t` (CiA 402-2 table 29: quick
 // stop also gives 7 and 10 outside Operation enabled; switch on and disable operation are

@@ -16,7 +16,9 @@
 #   drivers       common firmware_if
 #   safety        common firmware_if control/model drivers
 #   control       common firmware_if control/model drivers safety   (control/* but model)
-#   sim           common firmware_if control/model, of drivers only the interfaces:
+#   sim/canopen   firmware_if                     the CANopen slave parts (dualv_canopen_slave),
+#                                                 which the drivers' tests link too
+#   sim           common firmware_if control/model sim/canopen, of drivers only the interfaces:
 #                 drivers/can/ (the bus) and drivers/actuator_set.hpp (what SimActuatorSet is)
 #   lcm runtime   every layer above but apps      (dualv_lcm/ = generated LCM types)
 #   apps          everything
@@ -36,6 +38,7 @@ layer_of() {  # layer_of PATH (repository-relative) -> layer name, or "" when no
     drivers/actuator_set.*) echo drivers/actuator_set ;;
     drivers/*) echo drivers ;;
     safety/*) echo safety ;;
+    sim/canopen/*) echo sim/canopen ;;
     sim/*) echo sim ;;
     lcm/* | dualv_lcm/*) echo lcm ;;
     runtime/*) echo runtime ;;
@@ -55,7 +58,8 @@ allowed() {  # allowed FROM TO -> 0 when FROM may include TO
     drivers) [[ $to =~ ^(common|firmware_if|drivers/can|drivers/actuator_set)$ ]] ;;
     safety) [[ $to =~ ^(common|firmware_if|control/model|drivers|drivers/can|drivers/actuator_set)$ ]] ;;
     control) [[ $to =~ ^(common|firmware_if|control/model|drivers|drivers/can|drivers/actuator_set|safety)$ ]] ;;
-    sim) [[ $to =~ ^(common|firmware_if|control/model|drivers/can|drivers/actuator_set)$ ]] ;;
+    sim/canopen) [[ $to == firmware_if ]] ;;
+    sim) [[ $to =~ ^(common|firmware_if|control/model|sim/canopen|drivers/can|drivers/actuator_set)$ ]] ;;
     lcm | runtime) [[ $to != apps ]] ;;
     apps) return 0 ;;
     *) return 1 ;;

@@ -7,7 +7,12 @@
 #include <stdexcept>
 #include <string>
 
+#include "sim/canopen/cia402_slave.hpp"
+#include "sim/canopen/emcy_producer.hpp"
+#include "sim/canopen/heartbeat_consumer.hpp"
+#include "sim/canopen/nmt_slave.hpp"
 #include "sim/canopen/object_dictionary.hpp"
+#include "sim/canopen/pdo_engine.hpp"
 #include "sim/canopen/sdo_server.hpp"
 
 namespace dualv::sim {
@@ -28,60 +33,6 @@ constexpr std::uint32_t abort_value(SdoAbortCode c) noexcept {
 using canopen::as_signed;
 using canopen::mask_of;
 
-// 1001h error register bits for an EMCY error code's class (CiA 301 7.5.2.2).
-constexpr std::uint8_t error_register_for(std::uint16_t code) noexcept {
-  std::uint8_t r = fw::error_register::kGeneric;
-  switch (code >> 12) {
-    case 0x2:
-      r |= fw::error_register::kCurrent;
-      break;
-    case 0x3:
-      r |= fw::error_register::kVoltage;
-      break;
-    case 0x4:
-      r |= fw::error_register::kTemperature;
-      break;
-    case 0x8:
-      r |= fw::error_register::kCommunication;
-      break;
-    default:
-      break;
-  }
-  return r;
-}
-
-// A PDO's payload: up to 64 bytes (a CAN FD frame; 8 on a classic drive).
-using PdoData = std::array<std::uint8_t, fw::kFdMaxBytes>;
-
-struct MapRef {
-  int slot = -1;  // -1: dummy entry (RPDO only)
-  std::uint8_t bytes = 0;
-};
-
-struct Pdo {
-  // From the dictionary (rebuild()).
-  bool valid = false;
-  std::uint16_t cob = 0;
-  std::uint8_t type = 0;
-  std::uint16_t event_ms = 0;
-  std::uint64_t inhibit_ns = 0;  // TPDO: 1800h sub3 x 100 us
-  std::uint8_t count = 0;
-  std::array<MapRef, fw::od::kPdoMaxMappedObjects> map{};
-  std::uint8_t bytes = 0;
-  bool maps_torque = false;
-  // Run time.
-  PdoData staged{};  // synchronous RPDO waiting for the next SYNC
-  bool pending = false;
-  std::uint8_t sync_count = 0;  // TPDO types 1..240
-  PdoData last{};               // TPDO types 0/254/255: last sent
-  bool sent_once = false;
-  std::uint64_t next_event_ns = 0;  // TPDO event timer
-  std::uint64_t last_tx_ns = 0;     // TPDO: last transmission (inhibit time)
-  bool change_pending = false;      // TPDO: a change waits for the inhibit time to end
-  std::uint64_t last_rx_ns = 0;     // RPDO deadline (event timer)
-  bool deadline_armed = false;
-};
-
 // The objects a foreign drive may lack (DriveEmulatorConfig::absent_objects).
 bool may_be_absent(std::uint16_t index) noexcept {
   switch (index) {
@@ -101,15 +52,6 @@ bool may_be_absent(std::uint16_t index) noexcept {
     default:
       return false;
   }
-}
-
-bool is_pdo_parameter(std::uint16_t index) noexcept {
-  return (index >= fw::od::kRpdoCommunicationBase &&
-          index < fw::od::kRpdoCommunicationBase + kEmulatedPdos) ||
-         (index >= fw::od::kRpdoMappingBase && index < fw::od::kRpdoMappingBase + kEmulatedPdos) ||
-         (index >= fw::od::kTpdoCommunicationBase &&
-          index < fw::od::kTpdoCommunicationBase + kEmulatedPdos) ||
-         (index >= fw::od::kTpdoMappingBase && index < fw::od::kTpdoMappingBase + kEmulatedPdos);
 }
 
 }  // namespace
@@ -208,6 +150,9 @@ PlantConfig emulator_plant_config(const PlantConfig& plant, const DriveEmulatorC
   return p;
 }
 
+static_assert(kEmulatedConsumerHeartbeats == canopen::kHeartbeatConsumers,
+              "1016h sub1..n: the emulator's entries are the consumer part's");
+
 // ---- one slave ---------------------------------------------------------------------------
 
 struct DriveEmulator::Drive {
@@ -222,30 +167,27 @@ struct DriveEmulator::Drive {
       s_qs = -1, s_max = -1, s_rated = -1, s_sync = -1, s_period = -1;
   std::array<int, kEmulatedConsumerHeartbeats> s_hb_cons{};
 
-  bool refuse_dummies = false;  // DriveEmulatorConfig::refuse_dummy_mapping
-  bool fd = false;              // DriveEmulatorConfig::fd
-  std::array<Pdo, kEmulatedPdos> rpdo{};
-  std::array<Pdo, kEmulatedPdos> tpdo{};
+  canopen::PdoEngine pdos;
 
-  EmulatedNmt nmt = EmulatedNmt::kInitialisation;
-  Cia402State state = Cia402State::kNotReadyToSwitchOn;
-  std::uint8_t last_transition = 0;
-  std::uint16_t prev_cw = 0;  // bit 7 edge detection
-  bool qs_to_disabled = false;
+  canopen::NmtSlave nmt;       // with the heartbeat producer 1017h
+  canopen::EmcyProducer emcy;  // and the error register 1001h
+  canopen::Cia402Slave cia;    // the CiA 402 state machine, from firmware_if's table
   bool limit_active = false;
   double torque_nm = 0.0;
 
   // NMT error control.
-  std::uint64_t next_hb_ns = 0;
-  std::array<std::uint64_t, kEmulatedConsumerHeartbeats> hb_last_ns{};
-  std::array<bool, kEmulatedConsumerHeartbeats> hb_armed{};
-  std::array<bool, kEmulatedConsumerHeartbeats> hb_lost{};
+  canopen::HeartbeatConsumer hb_consumer;  // 1016h: the master's heartbeat
 
-  // Error conditions behind the error register 1001h (each sends its EMCY when it starts
-  // and EMCY 0000h with the remaining register when it is gone, CiA 301 7.2.7.1).
-  bool pdo_length_error = false;  // 8210h: an RPDO shorter than its mapping
-  bool deadline_error = false;    // 8250h: the RPDO deadline (1400h sub5) expired
-  bool fault_cause = false;       // hold_fault(): transition 15 refused while set
+  // Error conditions behind the error register 1001h (canopen::EmcyProducer: each sends its
+  // EMCY when it starts and EMCY 0000h with the remaining register when it is gone).
+  enum Condition : int {
+    kFaultCondition,                                            // CiA 402 Fault, with 603Fh
+    kHeartbeatLost,                                             // + consumer 0..1 (8130h)
+    kPdoLength = kHeartbeatLost + kEmulatedConsumerHeartbeats,  // 8210h: RPDO too short
+    kDeadline,  // 8250h: the RPDO deadline (1400h sub5) expired
+    kWatchdog,  // 8250h: the SYNC-counted RPDO watchdog tripped
+  };
+  bool fault_cause = false;  // hold_fault(): transition 15 refused while set
 
   // RPDO watchdog.
   bool wd_armed = false;
@@ -279,8 +221,7 @@ struct DriveEmulator::Drive {
     namespace od = fw::od;
     index = joint;
     dict.set_absent(c.absent_objects);
-    refuse_dummies = c.refuse_dummy_mapping;
-    fd = c.fd;
+    pdos.configure({c.fd, c.refuse_dummy_mapping});
     sdo_server.configure(c.drives[static_cast<std::size_t>(joint)].node_id,
                          {c.segmented_upload, c.upload_without_size});
     cfg = c.drives[static_cast<std::size_t>(joint)];
@@ -295,6 +236,9 @@ struct DriveEmulator::Drive {
     for (std::uint8_t s = 1; s <= kEmulatedConsumerHeartbeats; ++s)
       s_hb_cons[s - 1u] = add(od::consumer_heartbeat(s), s == 1 ? c.consumer_heartbeat : 0u);
     s_hb_prod = add(od::kProducerHeartbeat, c.producer_heartbeat_ms);
+    nmt.attach(node, s_hb_prod);
+    hb_consumer.attach(s_hb_cons);
+    emcy.attach(node, s_err_reg);
     // Every record has sub0, the highest sub-index supported (CiA 301 7.4.3).
     add(od::kIdentityCount, od::kIdentitySerial.subindex);
     add(od::kIdentityVendorId, c.vendor_id);
@@ -328,84 +272,8 @@ struct DriveEmulator::Drive {
     s_din = add(od::kDigitalInputs, 0);
     add(od::kSupportedDriveModes, fw::supported_mode_bit(fw::ModeOfOperation::kCyclicSyncTorque));
     // PDO records (CiA 301 7.5.2.35..38): RPDO1 / TPDO1 as the contract's defaults.
-    for (std::uint8_t n = 1; n <= kEmulatedPdos; ++n) {
-      for (PdoDirection d : {PdoDirection::kRpdo, PdoDirection::kTpdo}) {
-        const bool rx = d == PdoDirection::kRpdo;
-        const fw::Function f = rx ? fw::rpdo_function(n) : fw::tpdo_function(n);
-        add(od::pdo_communication_count(d, n), od::kPdoSubEventTimer);
-        add(od::pdo_cob_id(d, n), fw::pdo_cob_id_value(fw::cob_id(f, node), n == 1));
-        add(od::pdo_transmission_type(d, n),
-            n == 1 ? fw::kTransmissionSyncEvery : fw::kTransmissionEventProfile);
-        add(od::pdo_inhibit_time(d, n), 0);
-        add(od::pdo_event_timer(d, n), 0);
-        const fw::PdoLayout& l = rx ? fw::kRpdo1Layout : fw::kTpdo1Layout;
-        add(od::pdo_mapping_count(d, n), n == 1 ? l.count : 0);
-        for (std::uint8_t s = 1; s <= od::kPdoMaxMappedObjects; ++s)
-          add(od::pdo_mapping_entry(d, n, s),
-              (n == 1 && s <= l.count) ? fw::encode_mapping(l.entries[s - 1u]) : 0u);
-      }
-    }
-    for (std::uint8_t n = 1; n <= kEmulatedPdos; ++n) {
-      rebuild(PdoDirection::kRpdo, n);
-      rebuild(PdoDirection::kTpdo, n);
-    }
-  }
-
-  // ---- PDOs ----
-  void rebuild(PdoDirection d, std::uint8_t n) noexcept {
-    const bool rx = d == PdoDirection::kRpdo;
-    Pdo& p = rx ? rpdo[n - 1u] : tpdo[n - 1u];
-    p = Pdo{};
-    const std::uint32_t cob = u(find(fw::od::pdo_cob_id(d, n)));
-    p.valid = (cob & fw::kPdoCobIdInvalid) == 0;
-    p.cob = static_cast<std::uint16_t>(cob & fw::kMaxStandardId);
-    p.type = static_cast<std::uint8_t>(u(find(fw::od::pdo_transmission_type(d, n))));
-    p.event_ms = static_cast<std::uint16_t>(u(find(fw::od::pdo_event_timer(d, n))));
-    if (!rx) p.inhibit_ns = u(find(fw::od::pdo_inhibit_time(d, n))) * 100'000ull;
-    const auto count = static_cast<std::uint8_t>(std::min<std::uint32_t>(
-        u(find(fw::od::pdo_mapping_count(d, n))), fw::od::kPdoMaxMappedObjects));
-    std::uint32_t bits = 0;
-    for (std::uint8_t s = 1; s <= count; ++s) {
-      const fw::PdoMapEntry e = fw::decode_mapping(u(find(fw::od::pdo_mapping_entry(d, n, s))));
-      MapRef m;
-      m.bytes = static_cast<std::uint8_t>(e.bits / 8);
-      if (!fw::is_dummy(e)) {
-        m.slot = find(e.index, e.subindex);
-        if (m.slot < 0) return;  // checked when sub0 was written; never from defaults
-        if (e.index == fw::od::kTargetTorque.index) p.maps_torque = true;
-      }
-      bits += e.bits;
-      p.map[s - 1u] = m;
-    }
-    p.count = count;
-    p.bytes = static_cast<std::uint8_t>((bits + 7) / 8);
-  }
-
-  std::uint32_t check_mapping(PdoDirection d, std::uint8_t n, std::uint32_t count) const noexcept {
-    const bool rx = d == PdoDirection::kRpdo;
-    if (count > fw::od::kPdoMaxMappedObjects) return abort_value(SdoAbortCode::kMappingTooLong);
-    std::uint32_t bits = 0;
-    for (std::uint8_t s = 1; s <= count; ++s) {
-      const fw::PdoMapEntry e = fw::decode_mapping(u(find(fw::od::pdo_mapping_entry(d, n, s))));
-      if (fw::is_dummy(e)) {
-        // Dummies only in RPDOs, with the type's own length (CiA 301 7.4.7.1).
-        const auto t = static_cast<fw::DataType>(e.index);
-        if (!rx || e.bits != 8 * fw::size_of(t)) return abort_value(SdoAbortCode::kCannotBeMapped);
-      } else {
-        const int slot = find(e.index, e.subindex);
-        if (slot < 0) return abort_value(SdoAbortCode::kObjectDoesNotExist);
-        const OdEntry& o = dict.entry(slot);
-        const bool writable = o.access == fw::Access::kRw || o.access == fw::Access::kWo;
-        const bool readable = o.access != fw::Access::kWo;
-        if (!o.pdo_mappable || e.bits != o.bits() || (rx && !writable) || (!rx && !readable))
-          return abort_value(SdoAbortCode::kCannotBeMapped);
-      }
-      bits += e.bits;
-    }
-    // A classic PDO ends at 8 bytes; a CAN FD drive's at 64 (CiA 1301).
-    if (bits > 8u * (fd ? fw::kFdMaxBytes : fw::kClassicMaxBytes))
-      return abort_value(SdoAbortCode::kMappingTooLong);
-    return kNoAbort;
+    canopen::PdoEngine::add_objects(dict, node);
+    pdos.rebuild(dict);
   }
 
   // ---- value checks for SDO downloads (CiA 301 table 22 codes) ----
@@ -438,190 +306,103 @@ struct DriveEmulator::Drive {
                  : abort_value(SdoAbortCode::kInvalidValue);
     if (e.same_object(fo::kRatedTorque.index, 0) || e.index == fo::kEncoderIncrements.index)
       return v == 0 ? abort_value(SdoAbortCode::kValueTooLow) : kNoAbort;
-    if (is_pdo_parameter(e.index)) return check_pdo_write(e, v);
-    return kNoAbort;
-  }
-
-  std::uint32_t check_pdo_write(const OdEntry& e, std::uint32_t v) const noexcept {
-    namespace fo = fw::od;
-    const bool comm = e.index < fo::kRpdoMappingBase ||
-                      (e.index >= fo::kTpdoCommunicationBase && e.index < fo::kTpdoMappingBase);
-    const bool rx = e.index < fo::kTpdoCommunicationBase;
-    const PdoDirection d = rx ? PdoDirection::kRpdo : PdoDirection::kTpdo;
-    const std::uint16_t base = comm ? (rx ? fo::kRpdoCommunicationBase : fo::kTpdoCommunicationBase)
-                                    : (rx ? fo::kRpdoMappingBase : fo::kTpdoMappingBase);
-    const auto n = static_cast<std::uint8_t>(e.index - base + 1);
-    const Pdo& p = rx ? rpdo[n - 1u] : tpdo[n - 1u];
-    if (comm) {
-      if (e.subindex == fo::kPdoSubCobId) {
-        if (v & (1u << 29)) return abort_value(SdoAbortCode::kInvalidValue);  // 29-bit id
-        const bool new_valid = (v & fw::kPdoCobIdInvalid) == 0;
-        // CiA 301 7.5.2.35: the COB-ID may not change while the PDO stays valid.
-        if (p.valid && new_valid && (v & fw::kMaxStandardId) != p.cob)
-          return abort_value(SdoAbortCode::kInvalidValue);
-        return kNoAbort;
-      }
-      if (e.subindex == fo::kPdoSubTransmissionType)
-        return (v <= 240 || v >= fw::kTransmissionEventManufacturer)
-                   ? kNoAbort
-                   : abort_value(SdoAbortCode::kInvalidValue);
-      return kNoAbort;
-    }
-    // Mapping (CiA 301 7.5.2.36): only while the PDO is not valid; entries only with sub0 = 0.
-    if (p.valid) return abort_value(SdoAbortCode::kUnsupportedAccess);
-    if (e.subindex == 0) return v == 0 ? kNoAbort : check_mapping(d, n, v);
-    if (u(find(fo::pdo_mapping_count(d, n))) != 0)
-      return abort_value(SdoAbortCode::kUnsupportedAccess);
-    if (refuse_dummies && fw::is_dummy(fw::decode_mapping(v)))
-      return abort_value(SdoAbortCode::kCannotBeMapped);
-    return kNoAbort;
+    return pdos.check_write(dict, e, v);
   }
 
   // ---- output ----
-  bool can_talk() const noexcept { return !silent && nmt != EmulatedNmt::kInitialisation; }
+  // The drive's frames to the bus (none while silent).
+  struct Sink final : canopen::FrameSink {
+    Sink(Drive& d, DriveEmulator& e) noexcept : drive(d), emu(e) {}
+    void send(const fw::CanFrame& f) noexcept override { drive.send(emu, f); }
+    Drive& drive;
+    DriveEmulator& emu;
+  };
+  EmulatedNmt nmt_state() const noexcept {
+    switch (nmt.state()) {
+      case canopen::NmtSlaveState::kInitialisation:
+        return EmulatedNmt::kInitialisation;
+      case canopen::NmtSlaveState::kPreOperational:
+        return EmulatedNmt::kPreOperational;
+      case canopen::NmtSlaveState::kOperational:
+        return EmulatedNmt::kOperational;
+      case canopen::NmtSlaveState::kStopped:
+        return EmulatedNmt::kStopped;
+    }
+    return EmulatedNmt::kInitialisation;
+  }
   void send(DriveEmulator& emu, const fw::Result<fw::CanFrame>& frame) noexcept {
     if (!frame || silent) return;
     if (emu.bus_.send(*frame) != drivers::BusStatus::kOk) ++counters.tx_failures;
   }
-  void send_emcy(DriveEmulator& emu, std::uint16_t code) noexcept {
-    // EMCY in Pre-operational and Operational only (CiA 301 7.3.2.2, table 75).
-    if (!can_talk() || nmt == EmulatedNmt::kStopped) return;
-    fw::Emcy e;
-    e.node = node;
-    e.error_code = code;
-    e.error_register = static_cast<std::uint8_t>(u(s_err_reg));
-    send(emu, fw::encode_emcy(e));
-    ++counters.emcy_sent;
-  }
-  // 1001h from the conditions still present.
-  std::uint8_t error_register_now() const noexcept {
-    std::uint8_t r = 0;
-    if (state == Cia402State::kFault || state == Cia402State::kFaultReactionActive)
-      r |= error_register_for(static_cast<std::uint16_t>(u(s_err)));
-    if (hb_lost[0] || hb_lost[1]) r |= error_register_for(fw::emcy::kHeartbeatError);
-    if (pdo_length_error) r |= error_register_for(fw::emcy::kPdoLengthError);
-    if (deadline_error || wd_tripped) r |= error_register_for(fw::emcy::kRpdoTimeout);
-    return r;
-  }
-  // An error condition started: 1001h updated, then its EMCY (carrying 1001h).
-  void raise_error(DriveEmulator& emu, std::uint16_t code) noexcept {
-    set(s_err_reg, error_register_now());
-    send_emcy(emu, code);
+  // An error condition started: 1001h updated, then its EMCY (carrying 1001h) when
+  // `announce` and NMT allows EMCY (Pre-operational, Operational: CiA 301 table 75).
+  void raise(DriveEmulator& emu, int condition, std::uint16_t code, bool announce = true) noexcept {
+    Sink sink(*this, emu);
+    emcy.raise(dict, condition, code, announce && !silent && nmt.emcy_allowed(), sink);
   }
   // An error condition is gone: EMCY 0000h "error reset" with the remaining 1001h.
-  void error_gone(DriveEmulator& emu) noexcept {
-    set(s_err_reg, error_register_now());
-    send_emcy(emu, fw::emcy::kNoError);
+  void gone(DriveEmulator& emu, int condition, bool announce = true) noexcept {
+    Sink sink(*this, emu);
+    emcy.clear(dict, condition, announce && !silent && nmt.emcy_allowed(), sink);
   }
-  // ---- CiA 402 ----
+  // ---- CiA 402 (canopen::Cia402Slave; here what a state means for the drive) ----
   std::uint16_t statusword(bool estop_input) const noexcept {
-    std::uint16_t w = static_cast<std::uint16_t>(fw::statusword_bits(state) | fw::sw::kRemote);
-    if (state == Cia402State::kSwitchedOn || state == Cia402State::kOperationEnabled ||
-        state == Cia402State::kQuickStopActive)
-      w |= fw::sw::kVoltageEnabled;
-    if (state == Cia402State::kOperationEnabled && mode_is_cst()) {
-      w |= fw::sw::kDriveFollowsCommand;
-      if (limit_active) w |= fw::sw::kInternalLimitActive;
+    std::uint16_t extra = 0;
+    if (cia.state() == Cia402State::kOperationEnabled && mode_is_cst()) {
+      extra |= fw::sw::kDriveFollowsCommand;
+      if (limit_active) extra |= fw::sw::kInternalLimitActive;
     }
-    if (estop_input) w |= fw::sw::kWarning;
-    return w;
+    if (estop_input) extra |= fw::sw::kWarning;
+    return cia.statusword(extra);
   }
   bool mode_is_cst() const noexcept {
     return i(s_mode) == static_cast<std::int8_t>(fw::ModeOfOperation::kCyclicSyncTorque);
   }
   bool estop_input() const noexcept { return (u(s_din) & fw::od::kDigitalInputEstopMask) != 0; }
+  std::int16_t quick_stop_option() const noexcept { return static_cast<std::int16_t>(i(s_qs)); }
 
-  void set_state(DriveEmulator& emu, Cia402State s, std::uint8_t transition) noexcept {
-    state = s;
-    last_transition = transition;
-    if (s != Cia402State::kQuickStopActive) qs_to_disabled = false;
+  // After the state machine moved: statusword, and torque off at once outside Operation
+  // enabled (re-command the plant for the current period).
+  void state_changed(DriveEmulator& emu) noexcept {
     set(s_sw, statusword(estop_input()));
-    if (s != Cia402State::kOperationEnabled && torque_nm != 0.0) {
-      // Torque off at once: re-command the plant for the current period.
+    if (cia.state() != Cia402State::kOperationEnabled && torque_nm != 0.0) {
       torque_nm = 0.0;
       limit_active = false;
       emu.torque_[index] = 0.0;
       emu.command_plant();
     }
   }
-
-  // Quick stop active entered (transition 11 or a 6007h reaction): 605Ah decides the rest.
   void enter_quick_stop(DriveEmulator& emu) noexcept {
-    set_state(emu, Cia402State::kQuickStopActive, 11);
-    const std::int32_t opt = i(s_qs);
-    if (opt == static_cast<std::int16_t>(fw::QuickStopOption::kDisableDrive))
-      set_state(emu, Cia402State::kSwitchOnDisabled, 12);
-    else if (opt <= static_cast<std::int16_t>(fw::QuickStopOption::kVoltageLimit))
-      qs_to_disabled = true;  // "stopped" at the next SYNC (the ramp is not modelled)
+    cia.quick_stop(quick_stop_option());
+    state_changed(emu);
   }
-
-  // Disable voltage from whatever power state (transitions 7, 10, 9, 12).
   void disable_voltage(DriveEmulator& emu) noexcept {
-    switch (state) {
-      case Cia402State::kReadyToSwitchOn:
-        set_state(emu, Cia402State::kSwitchOnDisabled, 7);
-        break;
-      case Cia402State::kSwitchedOn:
-        set_state(emu, Cia402State::kSwitchOnDisabled, 10);
-        break;
-      case Cia402State::kOperationEnabled:
-        set_state(emu, Cia402State::kSwitchOnDisabled, 9);
-        break;
-      case Cia402State::kQuickStopActive:
-        set_state(emu, Cia402State::kSwitchOnDisabled, 12);
-        break;
-      default:
-        break;
-    }
+    if (cia.disable_voltage()) state_changed(emu);
   }
-
   void enter_fault(DriveEmulator& emu, std::uint16_t code) noexcept {
     set(s_err, code);
-    if (state != Cia402State::kFault) {
-      set_state(emu, Cia402State::kFaultReactionActive, 13);
-      set_state(emu, Cia402State::kFault, 14);  // no reaction ramp modelled: torque is off
-    }
-    raise_error(emu, code);
-  }
-
-  // Transition 15; refused (the drive stays in Fault) while the cause remains.
-  void fault_reset(DriveEmulator& emu) noexcept {
-    if (fault_cause) {
-      ++counters.fault_resets_refused;
-      return;
-    }
-    set_state(emu, Cia402State::kSwitchOnDisabled, 15);
-    set(s_err, fw::emcy::kNoError);
-    error_gone(emu);
+    if (cia.fault()) state_changed(emu);
+    raise(emu, kFaultCondition, code);
   }
 
   // The controlword 6040h was written (SDO, or an RPDO acting now / at SYNC).
   void on_controlword(DriveEmulator& emu) noexcept {
-    const auto cw = static_cast<std::uint16_t>(u(s_cw));
-    const bool rising_reset =
-        (cw & fw::cw::kFaultReset) != 0 && (prev_cw & fw::cw::kFaultReset) == 0;
-    prev_cw = cw;
-    using C = fw::Command;
-    switch (state) {
-      case Cia402State::kFault:
-        if (rising_reset) fault_reset(emu);  // 15, on the 0 -> 1 edge of bit 7 only
+    switch (cia.on_controlword(static_cast<std::uint16_t>(u(s_cw)), quick_stop_option(),
+                               estop_input(), fault_cause)) {
+      case canopen::ControlwordEffect::kNone:
         return;
-      case Cia402State::kNotReadyToSwitchOn:
-      case Cia402State::kFaultReactionActive:
-        return;  // the drive moves on its own
-      default:
-        break;
+      case canopen::ControlwordEffect::kFaultResetRefused:
+        ++counters.fault_resets_refused;
+        return;
+      case canopen::ControlwordEffect::kFaultReset:
+        state_changed(emu);
+        set(s_err, fw::emcy::kNoError);
+        gone(emu, kFaultCondition);
+        return;
+      case canopen::ControlwordEffect::kTransition:
+        state_changed(emu);
+        return;
     }
-    const C c = fw::decode_command(cw);
-    // The drive side of firmware_if's transition table (fw::slave_transition); 16 only where
-    // 605Ah keeps the drive in Quick stop active (5..8).
-    const bool qs_stays =
-        i(s_qs) >= static_cast<std::int16_t>(fw::QuickStopOption::kSlowDownRampStay);
-    const std::optional<fw::Transition> t = fw::slave_transition(state, c, qs_stays);
-    if (!t) return;
-    if (t->number == 2 && estop_input()) return;        // refused while the STO circuit is open
-    if (t->number == 11) return enter_quick_stop(emu);  // 605Ah decides what follows
-    set_state(emu, t->to, t->number);
   }
 
   // 6007h abort connection option (CiA 402-2): heartbeat loss, RPDO deadline, NMT events.
@@ -636,9 +417,10 @@ struct DriveEmulator::Drive {
         disable_voltage(emu);
         break;
       case fw::AbortConnectionOption::kQuickStop:
-        if (state == Cia402State::kOperationEnabled)
+        if (cia.state() == Cia402State::kOperationEnabled)
           enter_quick_stop(emu);
-        else if (state == Cia402State::kReadyToSwitchOn || state == Cia402State::kSwitchedOn)
+        else if (cia.state() == Cia402State::kReadyToSwitchOn ||
+                 cia.state() == Cia402State::kSwitchedOn)
           disable_voltage(emu);
         break;
     }
@@ -653,15 +435,12 @@ struct DriveEmulator::Drive {
       set(s_mode_disp, u(s_mode));
       set(s_sw, statusword(estop_input()));
     } else if (slot == s_hb_prod) {
-      next_hb_ns = now + static_cast<std::uint64_t>(u(s_hb_prod)) * 1'000'000u;
+      nmt.producer_time_written(dict, now);
     } else if (e.index == fw::od::kConsumerHeartbeatCount.index) {
-      hb_armed.fill(false);
-      hb_lost.fill(false);
-    } else if (is_pdo_parameter(e.index)) {
-      for (std::uint8_t n = 1; n <= kEmulatedPdos; ++n) {
-        rebuild(PdoDirection::kRpdo, n);
-        rebuild(PdoDirection::kTpdo, n);
-      }
+      hb_consumer.reset();
+      for (int c = 0; c < kEmulatedConsumerHeartbeats; ++c) gone(emu, kHeartbeatLost + c, false);
+    } else if (canopen::PdoEngine::is_parameter(e.index)) {
+      pdos.rebuild(dict);
     }
   }
 
@@ -683,75 +462,58 @@ struct DriveEmulator::Drive {
   }
 
   // ---- NMT ----
-  void reset_communication_state(std::uint64_t now) noexcept {
-    for (std::uint8_t n = 1; n <= kEmulatedPdos; ++n) {
-      rebuild(PdoDirection::kRpdo, n);
-      rebuild(PdoDirection::kTpdo, n);
-    }
+  void reset_communication_state(DriveEmulator& emu, std::uint64_t now) noexcept {
+    pdos.rebuild(dict);
     sdo_server.reset();
-    hb_armed.fill(false);
-    hb_lost.fill(false);
-    pdo_length_error = false;
-    deadline_error = false;
+    hb_consumer.reset();
+    // The communication's error conditions end with it, silently (1001h keeps a fault).
+    for (int c = kHeartbeatLost; c <= kWatchdog; ++c) gone(emu, c, false);
     wd_armed = false;
     wd_missed = 0;
     wd_tripped = false;
     torque_rx_since_sync = false;
-    next_hb_ns = now + static_cast<std::uint64_t>(u(s_hb_prod)) * 1'000'000u;
+    nmt.producer_time_written(dict, now);
   }
   // Power-on or reset node: the whole dictionary and the CiA 402 state machine restart.
   void reset_application(DriveEmulator& emu, std::uint64_t now) noexcept {
     dict.reset(0x0000, 0xFFFF);
+    emcy.reset();
     set(s_din, hw_inputs);
-    prev_cw = 0;
-    set_state(emu, Cia402State::kNotReadyToSwitchOn, 0);
-    set_state(emu, Cia402State::kSwitchOnDisabled, 1);
-    reset_communication_state(now);
+    cia.power_on();
+    state_changed(emu);
+    reset_communication_state(emu, now);
   }
   void boot_up(DriveEmulator& emu, std::uint64_t now) noexcept {
     boot_pending = false;
     if (refuse_boot) {
-      nmt = EmulatedNmt::kInitialisation;  // stays silent
+      nmt.hold_in_initialisation();  // stays silent
       return;
     }
-    nmt = EmulatedNmt::kPreOperational;
-    send(emu, fw::encode_heartbeat(node, fw::NmtState::kBootUp));
-    next_hb_ns = now + static_cast<std::uint64_t>(u(s_hb_prod)) * 1'000'000u;
+    Sink sink(*this, emu);
+    nmt.boot_up(dict, now, sink);
   }
   void leave_operational(DriveEmulator& emu) noexcept {
-    if (nmt == EmulatedNmt::kOperational && state == Cia402State::kOperationEnabled)
+    if (nmt_state() == EmulatedNmt::kOperational && cia.state() == Cia402State::kOperationEnabled)
       abort_connection(emu, fw::emcy::kCommunication);
     wd_armed = false;
     wd_missed = 0;
-    for (Pdo& p : rpdo) {
-      p.pending = false;
-      p.deadline_armed = false;
-    }
+    pdos.stop();
   }
+  // NMT (canopen::NmtSlave). The 6007h reaction to leaving Operational happens before the
+  // state changes, so its EMCY still goes out.
   void on_nmt(DriveEmulator& emu, fw::NmtCommand c, std::uint64_t now) noexcept {
-    if (nmt == EmulatedNmt::kInitialisation) return;
-    switch (c) {
-      case fw::NmtCommand::kStart:
-        nmt = EmulatedNmt::kOperational;
-        break;
-      case fw::NmtCommand::kStop:
-        leave_operational(emu);
-        nmt = EmulatedNmt::kStopped;
-        break;
-      case fw::NmtCommand::kEnterPreOperational:
-        leave_operational(emu);
-        nmt = EmulatedNmt::kPreOperational;
-        break;
-      case fw::NmtCommand::kResetNode:
-        reset_application(emu, now);
-        boot_up(emu, now);
-        break;
-      case fw::NmtCommand::kResetCommunication:
-        leave_operational(emu);
-        dict.reset(0x1000, 0x1FFF);
-        reset_communication_state(now);
-        boot_up(emu, now);
-        break;
+    if (nmt_state() == EmulatedNmt::kInitialisation) return;
+    if (c == fw::NmtCommand::kStop || c == fw::NmtCommand::kEnterPreOperational ||
+        c == fw::NmtCommand::kResetCommunication)
+      leave_operational(emu);
+    const canopen::NmtChange change = nmt.on_command(c);
+    if (change.reset_application) {
+      reset_application(emu, now);
+      boot_up(emu, now);
+    } else if (change.reset_communication) {
+      dict.reset(0x1000, 0x1FFF);
+      reset_communication_state(emu, now);
+      boot_up(emu, now);
     }
   }
 
@@ -784,146 +546,84 @@ struct DriveEmulator::Drive {
     counters.sdo_aborts_sent += sdo_server.aborts_sent() - aborts;
   }
 
-  // ---- PDO traffic ----
-  void write_mapped(DriveEmulator& emu, const Pdo& p, const std::uint8_t* data,
-                    std::uint64_t now) noexcept {
-    std::size_t off = 0;
-    for (std::uint8_t k = 0; k < p.count; ++k) {
-      const MapRef& m = p.map[k];
-      if (m.slot >= 0) {
-        set(m.slot, fw::get_uint_le(data + off, m.bytes));
-        after_write(emu, m.slot, now);
+  // ---- PDO engine (sim/canopen/pdo_engine.hpp) ----
+  // The drive behind the engine: TPDOs out (or dropped by drop_tpdos), effects of RPDO writes.
+  struct PdoAdapter final : canopen::PdoHooks {
+    PdoAdapter(Drive& d, DriveEmulator& e) noexcept : drive(d), emu(e) {}
+    void transmit(const fw::CanFrame& f) noexcept override {
+      if (drive.drop_tpdos > 0) {
+        if (drive.drop_tpdos != DriveEmulator::kForever) --drive.drop_tpdos;
+        ++drive.counters.tpdos_dropped;
+        return;
       }
-      off += m.bytes;
+      drive.send(emu, f);
+      ++drive.counters.tpdos_sent;
     }
-  }
+    void written(int slot, std::uint64_t now) noexcept override {
+      drive.after_write(emu, slot, now);
+    }
+    void before_sample() noexcept override { drive.refresh(emu); }
+    Drive& drive;
+    DriveEmulator& emu;
+  };
   // True when the frame was one of this drive's RPDOs.
   bool on_rpdo(DriveEmulator& emu, const fw::CanFrame& frame, std::uint64_t now) noexcept {
-    bool mine = false;
-    for (Pdo& p : rpdo) {
-      if (!p.valid || p.count == 0 || p.cob != frame.id) continue;
-      if (frame.fd && !fd) continue;  // a classic drive cannot receive an FD frame
-      mine = true;
-      if (nmt != EmulatedNmt::kOperational) continue;  // PDOs only in Operational
-      if (frame.dlc < p.bytes) {
-        ++counters.rpdo_length_errors;
-        if (!pdo_length_error) {  // 8210h once per occurrence; the data is not used
-          pdo_length_error = true;
-          raise_error(emu, fw::emcy::kPdoLengthError);
-        }
-        continue;
-      }
-      ++counters.rpdos;
-      if (pdo_length_error) {  // a correct RPDO: the condition is gone
-        pdo_length_error = false;
-        error_gone(emu);
-      }
-      p.last_rx_ns = now;
-      p.deadline_armed = true;
-      if (deadline_error) {  // the RPDOs are back
-        deadline_error = false;
-        error_gone(emu);
-      }
-      if (p.maps_torque) {
-        torque_rx_since_sync = true;
-        wd_armed = true;
-      }
-      if (p.type <= 240) {  // synchronous: acted upon at the next SYNC (CiA 301 7.2.2.2)
-        p.staged = frame.data;
-        p.pending = true;
-      } else {
-        write_mapped(emu, p, frame.data.data(), now);
-      }
+    PdoAdapter hooks(*this, emu);
+    const canopen::RpdoReceipt r = pdos.on_rpdo(frame, nmt.pdo_allowed(), dict, hooks, now);
+    if (r.too_short) {
+      ++counters.rpdo_length_errors;
+      // 8210h once per occurrence; the data is not used.
+      if (!emcy.active(kPdoLength)) raise(emu, kPdoLength, fw::emcy::kPdoLengthError);
     }
-    return mine;
-  }
-  // The inhibit time since the last transmission has passed (CiA 301 7.5.2.37).
-  static bool inhibit_over(const Pdo& p, std::uint64_t now) noexcept {
-    return !p.sent_once || p.inhibit_ns == 0 || now - p.last_tx_ns >= p.inhibit_ns;
-  }
-  void send_tpdo(DriveEmulator& emu, Pdo& p, const PdoData& data, std::uint64_t now) noexcept {
-    p.last = data;
-    p.sent_once = true;
-    p.change_pending = false;
-    p.last_tx_ns = now;
-    if (p.event_ms != 0)
-      p.next_event_ns = now + static_cast<std::uint64_t>(p.event_ms) * 1'000'000u;
-    if (drop_tpdos > 0) {
-      if (drop_tpdos != DriveEmulator::kForever) --drop_tpdos;
-      ++counters.tpdos_dropped;
-      return;
+    if (!r.accepted) return r.mine;
+    ++counters.rpdos;
+    gone(emu, kPdoLength);  // a correct RPDO: the condition is gone
+    gone(emu, kDeadline);   // the RPDOs are back
+    if (pdos.maps(PdoDirection::kRpdo, r.pdo, fw::od::kTargetTorque.index)) {
+      torque_rx_since_sync = true;
+      wd_armed = true;
     }
-    // On a CAN FD drive every TPDO is an FD frame with BRS (its size rounded up to a DLC size).
-    fw::CanFrame f = fw::data_frame(p.cob, p.bytes, fd);
-    f.data = data;
-    send(emu, f);
-    ++counters.tpdos_sent;
-  }
-  PdoData tpdo_data(const Pdo& p) const noexcept {
-    PdoData data{};
-    std::size_t off = 0;
-    for (std::uint8_t k = 0; k < p.count; ++k) {
-      const MapRef& m = p.map[k];
-      std::array<std::uint8_t, 4> b{};
-      fw::put_u32_le(b.data(), u(m.slot));
-      for (std::uint8_t j = 0; j < m.bytes && off + j < data.size(); ++j) data[off + j] = b[j];
-      off += m.bytes;
-    }
-    return data;
+    return r.mine;
   }
 
   // ---- SYNC (see the timing in the header) ----
   void on_sync(DriveEmulator& emu, std::uint64_t now, bool real) noexcept {
     ++counters.syncs;
-    if (nmt == EmulatedNmt::kInitialisation) {
+    if (nmt_state() == EmulatedNmt::kInitialisation) {
       torque_nm = 0.0;
       return;
     }
     refresh(emu);
-    if (nmt == EmulatedNmt::kOperational) {
-      if (real && !silent) {
-        for (Pdo& p : tpdo) {
-          if (!p.valid || p.count == 0) continue;
-          const PdoData data = tpdo_data(p);
-          if (p.type >= 1 && p.type <= 240) {
-            if (++p.sync_count >= p.type) {
-              p.sync_count = 0;
-              send_tpdo(emu, p, data, now);
-            }
-          } else if (!p.sent_once || data != p.last) {
-            if (inhibit_over(p, now))
-              send_tpdo(emu, p, data, now);
-            else
-              p.change_pending = true;  // sent by on_time when the inhibit time ends
-          }
-        }
-      }
-      for (Pdo& p : rpdo) {
-        if (!p.pending) continue;
-        p.pending = false;
-        write_mapped(emu, p, p.staged.data(), now);
-      }
+    if (nmt_state() == EmulatedNmt::kOperational) {
+      PdoAdapter hooks(*this, emu);
+      if (real && !silent) pdos.transmit_at_sync(dict, hooks, now);
+      pdos.latch_at_sync(dict, hooks, now);
       if (wd_armed && emu.config_.rpdo_watchdog_cycles > 0) {
         if (torque_rx_since_sync) {
           wd_missed = 0;
           if (wd_tripped) {
             wd_tripped = false;
-            if (!deadline_error) error_gone(emu);
+            gone(emu, kWatchdog, !emcy.active(kDeadline));
           }
         } else if (++wd_missed >= emu.config_.rpdo_watchdog_cycles && !wd_tripped) {
           wd_tripped = true;
+          raise(emu, kWatchdog, fw::emcy::kRpdoTimeout, false);  // the fault below reports it
           ++counters.watchdog_trips;
-          if (state == Cia402State::kOperationEnabled) enter_fault(emu, fw::emcy::kRpdoTimeout);
+          if (cia.state() == Cia402State::kOperationEnabled)
+            enter_fault(emu, fw::emcy::kRpdoTimeout);
         }
       }
       torque_rx_since_sync = false;
     }
-    if (state == Cia402State::kQuickStopActive && qs_to_disabled)
-      set_state(emu, Cia402State::kSwitchOnDisabled, 12);  // the quick stop has "stopped"
+    if (cia.state() == Cia402State::kQuickStopActive) {
+      cia.on_sync();  // a quick stop with 605Ah 1..4 has "stopped" (12)
+      state_changed(emu);
+    }
     // Target torque -> N m, only in Operation enabled with mode 10 (CiA 402-2 CST).
     double tau = 0.0;
     limit_active = false;
-    if (state == Cia402State::kOperationEnabled && mode_is_cst() && !estop_input() && !wd_tripped) {
+    if (cia.state() == Cia402State::kOperationEnabled && mode_is_cst() && !estop_input() &&
+        !wd_tripped) {
       const std::int32_t target = i(s_tt);
       const auto max = static_cast<std::int32_t>(u(s_max));
       const std::int32_t clipped = std::clamp(target, -max, max);
@@ -942,60 +642,37 @@ struct DriveEmulator::Drive {
       reset_application(emu, now);
       boot_up(emu, now);
     }
-    if (nmt == EmulatedNmt::kInitialisation) return;
-    // Heartbeat producer 1017h.
-    const std::uint64_t hb_ns = static_cast<std::uint64_t>(u(s_hb_prod)) * 1'000'000u;
-    if (hb_ns != 0 && now >= next_hb_ns) {
-      fw::NmtState s = fw::NmtState::kPreOperational;
-      if (nmt == EmulatedNmt::kOperational) s = fw::NmtState::kOperational;
-      if (nmt == EmulatedNmt::kStopped) s = fw::NmtState::kStopped;
-      if (!silent) {
-        send(emu, fw::encode_heartbeat(node, s));
-        ++counters.heartbeats_sent;
-      }
-      next_hb_ns += hb_ns;
-      if (next_hb_ns <= now) next_hb_ns = now + hb_ns;
+    if (nmt_state() == EmulatedNmt::kInitialisation) return;
+    // Heartbeat producer 1017h (canopen::NmtSlave).
+    {
+      Sink sink(*this, emu);
+      if (nmt.on_time(dict, now, sink) && !silent) ++counters.heartbeats_sent;
     }
     // Heartbeat consumer 1016h: a silence of >= the consumer time is a heartbeat event.
-    for (std::size_t c = 0; c < kEmulatedConsumerHeartbeats; ++c) {
-      const std::uint64_t t_ns =
-          static_cast<std::uint64_t>(fw::consumer_heartbeat_time_ms(u(s_hb_cons[c]))) * 1'000'000u;
-      if (t_ns == 0 || !hb_armed[c] || hb_lost[c] || now - hb_last_ns[c] < t_ns) continue;
-      hb_lost[c] = true;
+    const unsigned lost = hb_consumer.on_time(dict, now);
+    for (int c = 0; c < kEmulatedConsumerHeartbeats; ++c) {
+      if ((lost & (1u << c)) == 0) continue;
       ++counters.heartbeat_losses;
-      set(s_err_reg, error_register_now());
-      if (static_cast<fw::AbortConnectionOption>(i(s_abort)) !=
-          fw::AbortConnectionOption::kFaultSignal)
-        send_emcy(emu, fw::emcy::kHeartbeatError);
+      // With 6007h = fault signal the fault's own EMCY reports it.
+      raise(emu, kHeartbeatLost + static_cast<int>(c), fw::emcy::kHeartbeatError,
+            static_cast<fw::AbortConnectionOption>(i(s_abort)) !=
+                fw::AbortConnectionOption::kFaultSignal);
       abort_connection(emu, fw::emcy::kHeartbeatError);
     }
-    if (nmt != EmulatedNmt::kOperational) return;
+    if (nmt_state() != EmulatedNmt::kOperational) return;
     // RPDO deadline monitoring: 1400h sub5 event timer (CiA 301 7.5.2.35).
-    for (Pdo& p : rpdo) {
-      if (!p.valid || p.event_ms == 0 || !p.deadline_armed) continue;
-      if (now - p.last_rx_ns < static_cast<std::uint64_t>(p.event_ms) * 1'000'000u) continue;
-      p.deadline_armed = false;
+    for (int expired = pdos.expired_deadlines(now); expired > 0; --expired) {
       ++counters.deadline_trips;
-      deadline_error = true;
-      set(s_err_reg, error_register_now());
-      if (static_cast<fw::AbortConnectionOption>(i(s_abort)) !=
-          fw::AbortConnectionOption::kFaultSignal)
-        send_emcy(emu, fw::emcy::kRpdoTimeout);
+      raise(emu, kDeadline, fw::emcy::kRpdoTimeout,
+            static_cast<fw::AbortConnectionOption>(i(s_abort)) !=
+                fw::AbortConnectionOption::kFaultSignal);
       abort_connection(emu, fw::emcy::kRpdoTimeout);
     }
     // Event-driven TPDOs: a change held back by the inhibit time, and the event timer
     // (both bounded by the inhibit time).
-    for (Pdo& p : tpdo) {
-      if (!p.valid || p.count == 0 || (p.type >= 1 && p.type <= 240) || silent) continue;
-      const bool timer = p.event_ms != 0 && now >= p.next_event_ns;
-      if (!(timer || p.change_pending) || !inhibit_over(p, now)) continue;
-      refresh(emu);
-      const PdoData data = tpdo_data(p);
-      if (timer || data != p.last) {
-        send_tpdo(emu, p, data, now);
-      } else {
-        p.change_pending = false;  // changed back within the inhibit time: nothing new
-      }
+    if (!silent) {
+      PdoAdapter hooks(*this, emu);
+      pdos.on_time(dict, hooks, now);
     }
   }
 
@@ -1003,42 +680,19 @@ struct DriveEmulator::Drive {
   // on_time above (kNever when nothing is scheduled): a caller may sleep until then.
   std::uint64_t next_due_ns(std::uint64_t now) const noexcept {
     if (boot_pending && !refuse_boot) return now;
-    if (nmt == EmulatedNmt::kInitialisation) return kNever;
+    if (nmt_state() == EmulatedNmt::kInitialisation) return kNever;
     std::uint64_t due = kNever;
-    const std::uint64_t hb_ns = static_cast<std::uint64_t>(u(s_hb_prod)) * 1'000'000u;
-    if (hb_ns != 0) due = std::min(due, next_hb_ns);
-    for (std::size_t c = 0; c < kEmulatedConsumerHeartbeats; ++c) {
-      const std::uint64_t t_ns =
-          static_cast<std::uint64_t>(fw::consumer_heartbeat_time_ms(u(s_hb_cons[c]))) * 1'000'000u;
-      if (t_ns != 0 && hb_armed[c] && !hb_lost[c]) due = std::min(due, hb_last_ns[c] + t_ns);
-    }
-    if (nmt != EmulatedNmt::kOperational) return std::max(due, now);
-    for (const Pdo& p : rpdo)
-      if (p.valid && p.event_ms != 0 && p.deadline_armed)
-        due = std::min(due, p.last_rx_ns + static_cast<std::uint64_t>(p.event_ms) * 1'000'000u);
-    for (const Pdo& p : tpdo) {
-      if (!p.valid || p.count == 0 || (p.type >= 1 && p.type <= 240) || silent) continue;
-      std::uint64_t t = p.change_pending ? now : kNever;
-      if (p.event_ms != 0) t = std::min(t, p.next_event_ns);
-      if (t != kNever && p.sent_once && p.inhibit_ns != 0)
-        t = std::max(t, p.last_tx_ns + p.inhibit_ns);
-      due = std::min(due, t);
-    }
+    due = std::min(due, nmt.next_due_ns(dict));
+    due = std::min(due, hb_consumer.next_due_ns(dict));
+    if (nmt_state() != EmulatedNmt::kOperational) return std::max(due, now);
+    due = std::min(due, pdos.next_due_ns(now, !silent));
     return std::max(due, now);
   }
 
   void on_heartbeat(DriveEmulator& emu, const fw::Heartbeat& hb, std::uint64_t now) noexcept {
-    for (std::size_t c = 0; c < kEmulatedConsumerHeartbeats; ++c) {
-      const std::uint32_t v = u(s_hb_cons[c]);
-      if (fw::consumer_heartbeat_time_ms(v) == 0 || fw::consumer_heartbeat_node(v) != hb.node)
-        continue;
-      hb_last_ns[c] = now;
-      hb_armed[c] = true;  // monitoring starts with the first heartbeat (CiA 301)
-      if (hb_lost[c]) {
-        hb_lost[c] = false;
-        error_gone(emu);  // 0000h with what remains in 1001h (e.g. a fault)
-      }
-    }
+    const unsigned back = hb_consumer.on_heartbeat(dict, hb.node, now);
+    for (int c = 0; c < kEmulatedConsumerHeartbeats; ++c)
+      if ((back & (1u << c)) != 0) gone(emu, kHeartbeatLost + c);  // 0000h, what remains in 1001h
   }
 };
 
@@ -1145,10 +799,10 @@ void DriveEmulator::on_frame(const fw::CanFrame& frame, std::uint64_t now_ns) no
   const fw::Result<fw::CobIdInfo> info = fw::classify(frame);
   for (int k = 0; k < n_; ++k) {
     Drive& d = *drives_[static_cast<std::size_t>(k)];
-    if (d.silent || d.nmt == EmulatedNmt::kInitialisation) continue;
+    if (d.silent || d.nmt_state() == EmulatedNmt::kInitialisation) continue;
     if (info && info->function == fw::Function::kSdoRx && info->node == d.node) {
       handled = true;
-      if (d.nmt != EmulatedNmt::kStopped) d.on_sdo(*this, frame, now_ns);
+      if (d.nmt.sdo_allowed()) d.on_sdo(*this, frame, now_ns);
       continue;
     }
     if (info && info->function == fw::Function::kHeartbeat) {
@@ -1205,9 +859,7 @@ void DriveEmulator::set_digital_inputs(int drive, std::uint32_t mask, bool on) n
   d.set(d.s_din, d.hw_inputs);
   if (d.estop_input()) {
     // STO: the power stage is off whatever the controlword says.
-    if (d.state == Cia402State::kReadyToSwitchOn || d.state == Cia402State::kSwitchedOn ||
-        d.state == Cia402State::kOperationEnabled || d.state == Cia402State::kQuickStopActive)
-      d.disable_voltage(*this);
+    d.disable_voltage(*this);  // from Ready to switch on .. Quick stop active
   }
   d.set(d.s_sw, d.statusword(d.estop_input()));
 }
@@ -1236,7 +888,7 @@ void DriveEmulator::set_refuse_boot(int drive, bool refuse) noexcept {
   if (drive < 0 || drive >= n_) return;
   Drive& d = *drives_[static_cast<std::size_t>(drive)];
   d.refuse_boot = refuse;
-  if (!refuse && d.nmt == EmulatedNmt::kInitialisation && powered_) d.boot_pending = true;
+  if (!refuse && d.nmt_state() == EmulatedNmt::kInitialisation && powered_) d.boot_pending = true;
 }
 
 void DriveEmulator::drop_tpdos(int drive, std::uint32_t n) noexcept {
@@ -1256,9 +908,9 @@ EmulatedDriveStatus DriveEmulator::status(int drive) const noexcept {
   if (drive < 0 || drive >= n_) return s;
   const Drive& d = *drives_[static_cast<std::size_t>(drive)];
   s.node_id = d.node;
-  s.nmt = d.nmt;
-  s.state = d.state;
-  s.last_transition = d.last_transition;
+  s.nmt = d.nmt_state();
+  s.state = d.cia.state();
+  s.last_transition = d.cia.last_transition();
   s.statusword = static_cast<std::uint16_t>(d.u(d.s_sw));
   s.controlword = static_cast<std::uint16_t>(d.u(d.s_cw));
   s.target_torque = static_cast<std::int16_t>(d.i(d.s_tt));
@@ -1268,9 +920,10 @@ EmulatedDriveStatus DriveEmulator::status(int drive) const noexcept {
   s.error_register = static_cast<std::uint8_t>(d.u(d.s_err_reg));
   s.digital_inputs = d.u(d.s_din);
   s.watchdog_missed = d.wd_missed;
-  s.heartbeat_lost = d.hb_lost[0] || d.hb_lost[1];
+  s.heartbeat_lost = d.hb_consumer.any_lost();
   s.silent = d.silent;
   s.counters = d.counters;
+  s.counters.emcy_sent = d.emcy.sent();
   return s;
 }
 

@@ -14,7 +14,8 @@
 // allocate nothing (the object dictionary, PDO maps and SDO buffers are fixed arrays built
 // by the constructor).
 //
-// Each drive (slot i = plant joint i, node id from the configuration) has:
+// Each drive (slot i = plant joint i, node id from the configuration) is a CANopen slave
+// assembled from the parts of sim/canopen/ (docs/architecture.md "CAN contract"); it has:
 //  - NMT (CiA 301 7.3.2): Initialisation -> boot-up message (700h + id, 00h) ->
 //    Pre-operational; start / stop / enter pre-op / reset node / reset communication.
 //    SDO in Pre-operational and Operational; PDOs (and SYNC-driven TPDOs) in Operational
@@ -291,8 +292,9 @@ class DriveEmulator {
   const canopen::ObjectDictionary& dictionary(int drive) const noexcept;
 
  private:
-  // One slave: its dictionary and SDO server are the parts of sim/canopen/, the PDO engine,
-  // NMT, heartbeat / EMCY producers and the CiA 402 slave are in the .cpp.
+  // One slave, wired from the parts of sim/canopen/ (object dictionary, SDO server, PDO
+  // engine, NMT slave + heartbeat producer, EMCY producer, CiA 402 slave) with the drive's
+  // physics, heartbeat consumer, 6007h reactions and RPDO watchdog (the .cpp).
   struct Drive;
 
   void sync(std::uint64_t now_ns, bool real, std::uint64_t stamp_ns = 0) noexcept;

@@ -47,6 +47,11 @@ t=$(tree sim_master)  # sim may use the bus interface only, not the CANopen mast
 printf '#pragma once\n#include "drivers/canopen/master.hpp"\n' >"$t/sim/emu.hpp"
 expect sim_master 1 "sim/emu.hpp:2: sim includes drivers/canopen/master.hpp (drivers)"
 
+t=$(tree slave_parts_up)  # the CANopen slave parts use firmware_if only, not the rest of sim
+mkdir -p "$t/sim/canopen"
+printf '#pragma once\n#include "sim/emu.hpp"\n' >"$t/sim/canopen/pdo.hpp"
+expect slave_parts_up 1 "sim/canopen/pdo.hpp:2: sim/canopen includes sim/emu.hpp (sim)"
+
 t=$(tree common_up)  # an indented include in a .cpp counts too
 printf '#include <vector>\n  #  include "firmware_if/b.hpp"\n' >"$t/common/c.cpp"
 expect common_up 1 "common/c.cpp:2: common includes firmware_if/b.hpp (firmware_if)"

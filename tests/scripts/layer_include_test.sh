@@ -61,7 +61,7 @@ allowed() {
 }
 
 for t in dualv_common dualv_firmware_if dualv_model dualv_can_bus dualv_actuator_set \
-  dualv_drivers dualv_safety dualv_control dualv_sim dualv_runtime; do
+  dualv_drivers dualv_safety dualv_control dualv_canopen_slave dualv_sim dualv_runtime; do
   if [[ ! -s $dir/$t.txt ]]; then
     echo "FAIL no include path for $t in $dir (tests/scripts/CMakeLists.txt)"
     exit 1
@@ -97,6 +97,10 @@ refused dualv_control runtime/telemetry.hpp
 refused dualv_control apps/experiment/machine.hpp
 allowed dualv_control control/loop/control_cycle.hpp control/trajectory/program.hpp
 # sim: of drivers the bus interface and the actuator set only, never the master.
+# The CANopen slave parts: firmware_if only (the drivers' tests link them without sim).
+refused dualv_canopen_slave sim/plant.hpp
+refused dualv_canopen_slave drivers/can/can_bus.hpp
+allowed dualv_canopen_slave sim/canopen/pdo_engine.hpp sim/canopen/cia402_slave.hpp firmware_if/pdo.hpp
 refused dualv_sim drivers/canopen/master.hpp
 refused dualv_sim drivers/canopen_config.hpp
 refused dualv_sim safety/safety_filter.hpp

@@ -1,9 +1,12 @@
 #pragma once
 // A small scripted CANopen CiA 402 slave for the master's unit tests (not the emulator):
-// answers NMT, SDO (expedited and segmented), SYNC (TPDO1), takes RPDOs and walks a minimal
-// CiA 402 state machine. Everything it sends is encoded with firmware_if, so no index or
-// COB-ID is written twice. Deterministic: it acts only in step(), called by the test (or by
-// StepWaiter), never on a thread; time is the test's ManualClock.
+// answers NMT, SDO (expedited and segmented), SYNC (TPDO1) and takes RPDOs. Where it models
+// a conforming slave it is made of the emulator's slave parts (sim/canopen/, library
+// dualv_canopen_slave): the CiA 402 state machine and statusword are sim::canopen::Cia402Slave,
+// a fault's EMCY and its error register sim::canopen::EmcyProducer. On top it keeps scripted and
+// faulty answers for the master's negative tests (the knobs below). Everything it sends is
+// encoded with firmware_if, so no index or COB-ID is written twice. Deterministic: it acts only in
+// step(), called by the test (or by StepWaiter), never on a thread; time is the test's ManualClock.
 #include <cstdint>
 #include <map>
 #include <set>
@@ -15,6 +18,9 @@
 #include "drivers/canopen/clock.hpp"
 #include "drivers/canopen/waiter.hpp"
 #include "firmware_if/firmware_if.hpp"
+#include "sim/canopen/cia402_slave.hpp"
+#include "sim/canopen/emcy_producer.hpp"
+#include "sim/canopen/object_dictionary.hpp"
 
 namespace dualv::drivers::test {
 
@@ -28,7 +34,9 @@ inline std::vector<std::uint8_t> le_bytes(std::uint32_t v, std::size_t n) {
 
 class FakeSlave {
  public:
-  FakeSlave(CanBus& bus, std::uint8_t node) : bus_(bus), node_(node) {
+  FakeSlave(CanBus& bus, std::uint8_t node) : bus_(bus), node_(node), sink_(*this) {
+    emcy_.attach(node, error_register_.add(fw::od::kErrorRegister, 0));
+    cia402_.power_on();
     set(fw::od::kDeviceType, 0x00020192);  // CiA 402 servo drive
     set(fw::od::kSupportedDriveModes,
         fw::supported_mode_bit(fw::ModeOfOperation::kCyclicSyncTorque));
@@ -84,7 +92,8 @@ class FakeSlave {
     e.error_register = reg;
     send(fw::encode_emcy(e));
   }
-  std::uint16_t statusword() const { return fw::statusword_bits(cia); }
+  std::uint16_t statusword() const { return cia402_.statusword(); }
+  std::uint8_t error_register() const { return emcy_.error_register(); }
   // TPDO2 as the master maps it (60FDh digital inputs, 4 bytes on 280h + id).
   void send_digital_inputs(std::uint32_t di) {
     fw::CanFrame f;
@@ -110,9 +119,12 @@ class FakeSlave {
   }
   bool broadcast = false;
   // The drive faults on its own (e.g. over-temperature): EMCY + Fault.
+  // The EMCY carries the error register of the code's class (4210h: generic + temperature);
+  // a fault reset sends EMCY 0000h (sim::canopen::EmcyProducer).
   void fault(std::uint16_t code = fw::emcy::kDeviceOverTemperature) {
-    cia = fw::Cia402State::kFault;
-    send_emcy(code, fw::error_register::kGeneric);
+    cia402_.fault();
+    cia = cia402_.state();
+    emcy_.raise(error_register_, kFaultCondition, code, true, sink_);
   }
 
   // The drive's heartbeat producer (1017h, as configured by the master): call with the
@@ -142,7 +154,9 @@ class FakeSlave {
           case fw::NmtCommand::kResetNode:
           case fw::NmtCommand::kResetCommunication:
             nmt = fw::NmtState::kPreOperational;
-            cia = fw::Cia402State::kSwitchOnDisabled;
+            cia402_.power_on();
+            cia = cia402_.state();
+            emcy_.reset();
             if (boots) send(fw::encode_heartbeat(node_, fw::NmtState::kBootUp));
             break;
           case fw::NmtCommand::kStart:
@@ -203,16 +217,18 @@ class FakeSlave {
   bool statusword_sent_ = false;
   std::uint16_t last_statusword_ = 0;
   void on_controlword(std::uint16_t cw) {
-    const bool rising7 = (cw & fw::cw::kFaultReset) && !(controlword & fw::cw::kFaultReset);
     controlword = cw;
     controlwords.push_back(cw);
     if (cia402_stuck) return;
-    if (cia == fw::Cia402State::kFault) {
-      if (rising7 && fault_reset_works) cia = fw::Cia402State::kSwitchOnDisabled;
-      return;
-    }
-    // The drive side of firmware_if's transition table, as the emulator uses it.
-    if (const auto t = fw::slave_transition(cia, fw::decode_command(cw))) cia = t->to;
+    // The emulator's CiA 402 slave (firmware_if's transition table). Its quick stop never
+    // "stops" here (no on_sync): Quick stop active until disable voltage, as a drive still
+    // decelerating; no 16 (605Ah 2).
+    const sim::canopen::ControlwordEffect e =
+        cia402_.on_controlword(cw, static_cast<std::int16_t>(fw::QuickStopOption::kQuickStopRamp),
+                               false, !fault_reset_works);
+    cia = cia402_.state();
+    if (e == sim::canopen::ControlwordEffect::kFaultReset)
+      emcy_.clear(error_register_, kFaultCondition, true, sink_);
   }
 
   void sdo(const fw::CanFrame& f) {
@@ -292,8 +308,19 @@ class FakeSlave {
   std::vector<std::uint32_t> aborts_received;
 
  private:
+  struct Sink final : sim::canopen::FrameSink {
+    explicit Sink(FakeSlave& s) : slave(s) {}
+    void send(const fw::CanFrame& f) noexcept override { (void)slave.bus_.send(f); }
+    FakeSlave& slave;
+  };
+  static constexpr int kFaultCondition = 0;
+
   CanBus& bus_;
   std::uint8_t node_;
+  Sink sink_;
+  sim::canopen::Cia402Slave cia402_;
+  sim::canopen::ObjectDictionary error_register_;  // 1001h, owned by emcy_
+  sim::canopen::EmcyProducer emcy_;
   std::uint64_t last_heartbeat_ns_ = 0;
   Key seg_key_{};
   std::vector<std::uint8_t> seg_buf_;
