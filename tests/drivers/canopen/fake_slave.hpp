@@ -2,8 +2,11 @@
 // A small scripted CANopen CiA 402 slave for the master's unit tests (not the emulator):
 // answers NMT, SDO (expedited and segmented), SYNC (TPDO1) and takes RPDOs. Where it models
 // a conforming slave it is made of the emulator's slave parts (sim/canopen/, library
-// dualv_canopen_slave): the CiA 402 state machine and statusword are sim::canopen::Cia402Slave,
-// a fault's EMCY and its error register sim::canopen::EmcyProducer. On top it keeps scripted and
+// dualv_canopen_slave): the NMT state machine, boot-up message and heartbeat producer (1017h)
+// are sim::canopen::NmtSlave, the CiA 402 state machine and statusword
+// sim::canopen::Cia402Slave, a fault's EMCY and its error register sim::canopen::EmcyProducer.
+// Its SDO server (a map of byte strings, for objects longer than 4 bytes such as 1008h) and its
+// PDO handling (the master's fixed layouts) are still its own. On top it keeps scripted and
 // faulty answers for the master's negative tests (the knobs below). Everything it sends is
 // encoded with firmware_if, so no index or COB-ID is written twice. Deterministic: it acts only in
 // step(), called by the test (or by StepWaiter), never on a thread; time is the test's ManualClock.
@@ -20,6 +23,7 @@
 #include "firmware_if/firmware_if.hpp"
 #include "sim/canopen/cia402_slave.hpp"
 #include "sim/canopen/emcy_producer.hpp"
+#include "sim/canopen/nmt_slave.hpp"
 #include "sim/canopen/object_dictionary.hpp"
 
 namespace dualv::drivers::test {
@@ -36,6 +40,10 @@ class FakeSlave {
  public:
   FakeSlave(CanBus& bus, std::uint8_t node) : bus_(bus), node_(node), sink_(*this) {
     emcy_.attach(node, error_register_.add(fw::od::kErrorRegister, 0));
+    nmt.attach(node, heartbeat_od_.add(fw::od::kProducerHeartbeat, 0));
+    // Booted before the test starts: Pre-operational, its boot-up message not on the bus.
+    Discard discard;
+    nmt.boot_up(heartbeat_od_, 0, discard);
     cia402_.power_on();
     set(fw::od::kDeviceType, 0x00020192);  // CiA 402 servo drive
     set(fw::od::kSupportedDriveModes,
@@ -46,7 +54,7 @@ class FakeSlave {
   }
 
   // ---- knobs ----
-  bool boots = true;  // answers NMT reset with a boot-up message
+  bool boots = true;  // after an NMT reset: boot-up message, else stays in Initialisation
   bool answers_sdo = true;
   bool answers_sync = true;     // TPDO1 after SYNC when Operational
   bool ignores_writes = false;  // SDO write confirmed but value not stored (read-back test)
@@ -61,7 +69,7 @@ class FakeSlave {
   std::int32_t position = 0;
 
   // ---- state ----
-  fw::NmtState nmt = fw::NmtState::kPreOperational;
+  sim::canopen::NmtSlave nmt;  // CiA 301 NMT slave: state(), and what each state allows
   fw::Cia402State cia = fw::Cia402State::kSwitchOnDisabled;
   std::uint16_t controlword = 0;
   std::int16_t target_torque = 0;
@@ -71,7 +79,7 @@ class FakeSlave {
   int syncs = 0;
 
   void set(const fw::OdEntry& e, std::uint32_t v) {
-    od[{e.index, e.subindex}] = le_bytes(v, e.size());
+    store({e.index, e.subindex}, le_bytes(v, e.size()));
   }
   std::uint32_t get(const fw::OdEntry& e) const {
     auto it = od.find({e.index, e.subindex});
@@ -84,7 +92,24 @@ class FakeSlave {
   void send(const fw::Result<fw::CanFrame>& f) {
     if (f) (void)bus_.send(*f);
   }
-  void send_heartbeat() { send(fw::encode_heartbeat(node_, nmt)); }
+  // A heartbeat with the current NMT state now (outside the producer's period), as
+  // CANopenNode sends one on each state change; none in Initialisation.
+  void send_heartbeat() {
+    fw::NmtState s = fw::NmtState::kPreOperational;
+    switch (nmt.state()) {
+      case sim::canopen::NmtSlaveState::kInitialisation:
+        return;
+      case sim::canopen::NmtSlaveState::kPreOperational:
+        break;
+      case sim::canopen::NmtSlaveState::kOperational:
+        s = fw::NmtState::kOperational;
+        break;
+      case sim::canopen::NmtSlaveState::kStopped:
+        s = fw::NmtState::kStopped;
+        break;
+    }
+    send(fw::encode_heartbeat(node_, s));
+  }
   void send_emcy(std::uint16_t code, std::uint8_t reg = 0) {
     fw::Emcy e;
     e.node = node_;
@@ -127,13 +152,12 @@ class FakeSlave {
     emcy_.raise(error_register_, kFaultCondition, code, true, sink_);
   }
 
-  // The drive's heartbeat producer (1017h, as configured by the master): call with the
-  // current time; sends when due (Pre-operational, Operational, Stopped).
+  // The drive's heartbeat producer (NmtSlave, 1017h as configured by the master): call with
+  // the current time; sends when due (Pre-operational, Operational, Stopped), the period
+  // counted from the boot-up or the last write of 1017h.
   void tick(std::uint64_t now_ns) {
-    const std::uint32_t period_ms = get(fw::od::kProducerHeartbeat);
-    if (period_ms == 0 || now_ns - last_heartbeat_ns_ < period_ms * 1'000'000ull) return;
-    last_heartbeat_ns_ = now_ns;
-    send_heartbeat();
+    now_ns_ = now_ns;
+    (void)nmt.on_time(heartbeat_od_, now_ns, sink_);
   }
 
   // Processes every frame received, answering as a drive would.
@@ -150,42 +174,32 @@ class FakeSlave {
       case fw::Function::kNmt: {
         const auto m = fw::decode_nmt(f);
         if (!m || !fw::addressed_to(*m, node_)) return;
-        switch (m->command) {
-          case fw::NmtCommand::kResetNode:
-          case fw::NmtCommand::kResetCommunication:
-            nmt = fw::NmtState::kPreOperational;
-            cia402_.power_on();
-            cia = cia402_.state();
-            emcy_.reset();
-            if (boots) send(fw::encode_heartbeat(node_, fw::NmtState::kBootUp));
-            break;
-          case fw::NmtCommand::kStart:
-            if (ignore_nmt_starts > 0) {
-              --ignore_nmt_starts;
-              break;
-            }
-            nmt = fw::NmtState::kOperational;
-            send_heartbeat();
-            break;
-          case fw::NmtCommand::kStop:
-            nmt = fw::NmtState::kStopped;
-            send_heartbeat();
-            break;
-          case fw::NmtCommand::kEnterPreOperational:
-            nmt = fw::NmtState::kPreOperational;
-            send_heartbeat();
-            break;
+        if (m->command == fw::NmtCommand::kStart && ignore_nmt_starts > 0) {
+          --ignore_nmt_starts;  // lost on the way
+          return;
+        }
+        const sim::canopen::NmtChange change = nmt.on_command(m->command);
+        if (change.reset_application || change.reset_communication) {
+          cia402_.power_on();
+          cia = cia402_.state();
+          emcy_.reset();
+          if (boots)
+            nmt.boot_up(heartbeat_od_, now_ns_, sink_);
+          else
+            nmt.hold_in_initialisation();
+        } else if (change.from != sim::canopen::NmtSlaveState::kInitialisation) {
+          send_heartbeat();
         }
         return;
       }
       case fw::Function::kSync:
-        if (nmt != fw::NmtState::kOperational) return;
+        if (!nmt.pdo_allowed()) return;
         ++syncs;
         if (cia == fw::Cia402State::kOperationEnabled) applied_torques.push_back(target_torque);
         if (answers_sync) send_tpdo();
         return;
       case fw::Function::kRpdo1:
-        if (info->node != node_ || nmt != fw::NmtState::kOperational) return;
+        if (info->node != node_ || !nmt.pdo_allowed()) return;
         if (f.dlc == 4) {
           const auto c = fw::decode_rpdo1(f);
           if (c) {
@@ -197,13 +211,13 @@ class FakeSlave {
         }
         return;
       case fw::Function::kBroadcastRpdo: {
-        if (nmt != fw::NmtState::kOperational) return;
+        if (!nmt.pdo_allowed()) return;
         const auto t = fw::decode_broadcast_torque(f, slot);
         if (t) target_torque = *t;
         return;
       }
       case fw::Function::kSdoRx:
-        if (info->node == node_ && answers_sdo) sdo(f);
+        if (info->node == node_ && answers_sdo && nmt.sdo_allowed()) sdo(f);
         return;
       default:
         return;
@@ -244,7 +258,7 @@ class FakeSlave {
         }
         if (m.expedited) {
           if (!ignores_writes)
-            od[k] = std::vector<std::uint8_t>(m.data.begin(), m.data.begin() + m.data_len);
+            store(k, std::vector<std::uint8_t>(m.data.begin(), m.data.begin() + m.data_len));
         } else {
           seg_key_ = k;
           seg_buf_.assign(m.size, 0);
@@ -261,7 +275,7 @@ class FakeSlave {
         }
         send(fw::sdo_download_segment_response(node_, m.toggle));
         if (rx_.done())
-          od[seg_key_] = std::vector<std::uint8_t>(rx_.bytes().begin(), rx_.bytes().end());
+          store(seg_key_, std::vector<std::uint8_t>(rx_.bytes().begin(), rx_.bytes().end()));
         return;
       }
       case fw::SdoType::kUploadInitiate: {
@@ -308,6 +322,19 @@ class FakeSlave {
   std::vector<std::uint32_t> aborts_received;
 
  private:
+  // An object's new value; 1017h also goes to the NmtSlave's dictionary (its producer restarts).
+  void store(const Key& k, std::vector<std::uint8_t> bytes) {
+    const fw::OdEntry& hb = fw::od::kProducerHeartbeat;
+    if (k == Key{hb.index, hb.subindex}) {
+      heartbeat_od_.set(heartbeat_od_.find(hb),
+                        fw::get_uint_le(bytes.data(), std::min<std::size_t>(4, bytes.size())));
+      nmt.producer_time_written(heartbeat_od_, now_ns_);
+    }
+    od[k] = std::move(bytes);
+  }
+  struct Discard final : sim::canopen::FrameSink {
+    void send(const fw::CanFrame&) noexcept override {}
+  };
   struct Sink final : sim::canopen::FrameSink {
     explicit Sink(FakeSlave& s) : slave(s) {}
     void send(const fw::CanFrame& f) noexcept override { (void)slave.bus_.send(f); }
@@ -321,7 +348,8 @@ class FakeSlave {
   sim::canopen::Cia402Slave cia402_;
   sim::canopen::ObjectDictionary error_register_;  // 1001h, owned by emcy_
   sim::canopen::EmcyProducer emcy_;
-  std::uint64_t last_heartbeat_ns_ = 0;
+  sim::canopen::ObjectDictionary heartbeat_od_;  // 1017h, read by nmt's producer
+  std::uint64_t now_ns_ = 0;                     // the last tick()
   Key seg_key_{};
   std::vector<std::uint8_t> seg_buf_;
   fw::SdoSegmentReceiver rx_{std::span<std::uint8_t>{}};
