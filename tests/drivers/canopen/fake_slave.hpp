@@ -2,16 +2,17 @@
 // A small scripted CANopen CiA 402 slave for the master's unit tests (not the emulator):
 // answers NMT, SDO (expedited and segmented), SYNC (TPDO1) and takes RPDOs. Where it models
 // a conforming slave it is made of the emulator's slave parts (sim/canopen/, library
-// dualv_canopen_slave): the NMT state machine, boot-up message and heartbeat producer (1017h)
-// are sim::canopen::NmtSlave, the CiA 402 state machine and statusword
-// sim::canopen::Cia402Slave, a fault's EMCY and its error register sim::canopen::EmcyProducer,
-// the SDO server of its object dictionary (the emulator's objects, sim::canopen::ObjectDictionary
-// with the PDO records of sim::canopen::PdoEngine::add_objects) sim::canopen::SdoServer.
-// Objects outside that dictionary (domains and strings longer than 4 bytes such as 1008h, or
-// made-up ones, in `od`) are served by the scripted layer, as are the master's negative cases
-// (abort_on_*). Its PDO handling (the master's fixed layouts) is still its own. Values survive
-// NMT resets (the test's set-up stands for the drive's stored parameters). On top it keeps scripted
-// and faulty answers for the master's negative tests (the knobs below). Everything it sends is
+// dualv_canopen_slave):
+// - NMT states, boot-up message, heartbeat producer (1017h): sim::canopen::NmtSlave;
+// - the object dictionary (the emulator's objects incl. the PDO records of
+//   PdoEngine::add_objects): sim::canopen::ObjectDictionary, served by sim::canopen::SdoServer;
+// - CiA 402 state machine and statusword: sim::canopen::Cia402Slave;
+// - a fault's EMCY and the error register 1001h: sim::canopen::EmcyProducer.
+// A thin scripted layer on top serves the master's negative tests (the knobs below: aborts on
+// request, silence, lost NMT starts, ...) and objects outside the dictionary (strings and
+// domains longer than 4 bytes such as 1008h, made-up ones: `od`). Its PDO handling (the
+// master's fixed layouts) is still its own, not sim::canopen::PdoEngine. Values survive NMT
+// resets (the test's set-up stands for the drive's stored parameters). Everything it sends is
 // encoded with firmware_if, so no index or COB-ID is written twice. Deterministic: it acts only in
 // step(), called by the test (or by StepWaiter), never on a thread; time is the test's ManualClock.
 #include <cstdint>
