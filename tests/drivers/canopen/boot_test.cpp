@@ -111,7 +111,7 @@ TEST(Boot, GoldenFramesPerDriveLayout) {
   for (std::size_t i = 0; i < std::min(got.size(), expected.size()); ++i)
     EXPECT_EQ(got[i], expected[i]) << "frame " << i;
   EXPECT_EQ(got.size(), expected.size());
-  EXPECT_EQ(b.slave(0).nmt, fw::NmtState::kOperational);
+  EXPECT_EQ(b.slave(0).nmt.state(), sim::canopen::NmtSlaveState::kOperational);
   EXPECT_EQ(b.slave(0).get(fw::od::consumer_heartbeat(1)), 0x007F0096u);
 }
 
@@ -167,7 +167,7 @@ TEST(Boot, LostNmtStartIsSentAgain) {
   CanConfig c = config_for(2);
   CanopenMaster m(b.master_bus(), b.clock, *b.waiter, drivers::master_config(c));
   boot_drives(m, c);
-  EXPECT_EQ(b.slave(1).nmt, fw::NmtState::kOperational);
+  EXPECT_EQ(b.slave(1).nmt.state(), sim::canopen::NmtSlaveState::kOperational);
   int starts_node2 = 0;
   for (const auto& f : b.master_frames()) starts_node2 += f == "000#0102";
   EXPECT_EQ(starts_node2, 2);
@@ -201,7 +201,7 @@ TEST(Boot, DriveAnsweringUploadsWithoutSizeBoots) {
   CanConfig c = config_for(1);
   CanopenMaster m(b.master_bus(), b.clock, *b.waiter, drivers::master_config(c));
   boot_drives(m, c);
-  EXPECT_EQ(b.slave(0).nmt, fw::NmtState::kOperational);
+  EXPECT_EQ(b.slave(0).nmt.state(), sim::canopen::NmtSlaveState::kOperational);
   bool saw_42 = false;
   for (const fw::CanFrame& f : test::drain(b.sniffer()))
     saw_42 = saw_42 || (f.id == 0x581 && f.data[0] == 0x42);
@@ -227,8 +227,8 @@ TEST(Boot, OptionalObjectTheDriveLacksIsSkippedAndLogged) {
   EXPECT_EQ(log[0],
             "node 2: interpolation_period skipped (optional): 60C2h sub1 (interpolation time "
             "period value) aborted 06020000h object does not exist in the object dictionary");
-  EXPECT_EQ(b.slave(0).nmt, fw::NmtState::kOperational);
-  EXPECT_EQ(b.slave(1).nmt, fw::NmtState::kOperational);
+  EXPECT_EQ(b.slave(0).nmt.state(), sim::canopen::NmtSlaveState::kOperational);
+  EXPECT_EQ(b.slave(1).nmt.state(), sim::canopen::NmtSlaveState::kOperational);
   const auto frames = b.master_frames();
   EXPECT_EQ(std::count(frames.begin(), frames.end(), "602#2FC26002FD000000"), 0);  // sub2
   EXPECT_EQ(std::count(frames.begin(), frames.end(), "601#2FC26002FD000000"), 1);
@@ -252,7 +252,7 @@ TEST(Boot, RequiredObjectTheDriveLacksFailsNamingThePolicy) {
               std::string::npos)
         << e.what();
   }
-  EXPECT_EQ(b.slave(0).nmt, fw::NmtState::kPreOperational);
+  EXPECT_EQ(b.slave(0).nmt.state(), sim::canopen::NmtSlaveState::kPreOperational);
 }
 
 TEST(Boot, OptionalObjectOtherAbortsStillFail) {
@@ -309,8 +309,8 @@ TEST(Boot, SdoAbortNamesNodeObjectAndText) {
               "node 2: SDO write 6060h sub0 (modes of operation) = 10 aborted by the drive: "
               "06090030h invalid value for parameter (download only)");
   }
-  EXPECT_EQ(b.slave(0).nmt, fw::NmtState::kPreOperational);  // never started
-  EXPECT_EQ(b.slave(1).nmt, fw::NmtState::kPreOperational);
+  EXPECT_EQ(b.slave(0).nmt.state(), sim::canopen::NmtSlaveState::kPreOperational);  // never started
+  EXPECT_EQ(b.slave(1).nmt.state(), sim::canopen::NmtSlaveState::kPreOperational);
 }
 
 TEST(Boot, SilentDriveGivesSdoTimeout) {
@@ -458,8 +458,9 @@ TEST(Boot, DriveRefusingDummyMappingNamedWithTheObject) {
     EXPECT_NE(what.find("06040041h"), std::string::npos) << what;
     EXPECT_NE(what.find("use per_drive"), std::string::npos) << what;
   }
-  EXPECT_EQ(b.slave(0).nmt, fw::NmtState::kPreOperational);  // nothing started
-  EXPECT_EQ(b.slave(1).nmt, fw::NmtState::kPreOperational);
+  EXPECT_EQ(b.slave(0).nmt.state(),
+            sim::canopen::NmtSlaveState::kPreOperational);  // nothing started
+  EXPECT_EQ(b.slave(1).nmt.state(), sim::canopen::NmtSlaveState::kPreOperational);
 }
 
 TEST(Boot, SyncCounterWritten) {

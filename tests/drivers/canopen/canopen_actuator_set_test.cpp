@@ -27,7 +27,8 @@ struct SetFixture : ::testing::Test {
     for (int i = 0; i < 4; ++i) {
       slaves.push_back(std::make_unique<FakeSlave>(hub.endpoint(static_cast<std::size_t>(i) + 1),
                                                    static_cast<std::uint8_t>(i + 1)));
-      slaves.back()->nmt = fw::NmtState::kOperational;  // booted (boot_test covers boot)
+      (void)slaves.back()->nmt.on_command(
+          fw::NmtCommand::kStart);  // booted (boot_test covers boot)
       slaves.back()->slot = static_cast<std::uint8_t>(i);
       slaves.back()->broadcast = layout == fw::BusLayout::kBroadcast;
       slaves.back()->position = 10000 * (i + 1);

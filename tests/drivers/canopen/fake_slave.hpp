@@ -2,9 +2,17 @@
 // A small scripted CANopen CiA 402 slave for the master's unit tests (not the emulator):
 // answers NMT, SDO (expedited and segmented), SYNC (TPDO1) and takes RPDOs. Where it models
 // a conforming slave it is made of the emulator's slave parts (sim/canopen/, library
-// dualv_canopen_slave): the CiA 402 state machine and statusword are sim::canopen::Cia402Slave,
-// a fault's EMCY and its error register sim::canopen::EmcyProducer. On top it keeps scripted and
-// faulty answers for the master's negative tests (the knobs below). Everything it sends is
+// dualv_canopen_slave):
+// - NMT states, boot-up message, heartbeat producer (1017h): sim::canopen::NmtSlave;
+// - the object dictionary (the emulator's objects incl. the PDO records of
+//   PdoEngine::add_objects): sim::canopen::ObjectDictionary, served by sim::canopen::SdoServer;
+// - CiA 402 state machine and statusword: sim::canopen::Cia402Slave;
+// - a fault's EMCY and the error register 1001h: sim::canopen::EmcyProducer.
+// A thin scripted layer on top serves the master's negative tests (the knobs below: aborts on
+// request, silence, lost NMT starts, ...) and objects outside the dictionary (strings and
+// domains longer than 4 bytes such as 1008h, made-up ones: `od`). Its PDO handling (the
+// master's fixed layouts) is still its own, not sim::canopen::PdoEngine. Values survive NMT
+// resets (the test's set-up stands for the drive's stored parameters). Everything it sends is
 // encoded with firmware_if, so no index or COB-ID is written twice. Deterministic: it acts only in
 // step(), called by the test (or by StepWaiter), never on a thread; time is the test's ManualClock.
 #include <cstdint>
@@ -20,7 +28,10 @@
 #include "firmware_if/firmware_if.hpp"
 #include "sim/canopen/cia402_slave.hpp"
 #include "sim/canopen/emcy_producer.hpp"
+#include "sim/canopen/nmt_slave.hpp"
 #include "sim/canopen/object_dictionary.hpp"
+#include "sim/canopen/pdo_engine.hpp"
+#include "sim/canopen/sdo_server.hpp"
 
 namespace dualv::drivers::test {
 
@@ -34,19 +45,19 @@ inline std::vector<std::uint8_t> le_bytes(std::uint32_t v, std::size_t n) {
 
 class FakeSlave {
  public:
-  FakeSlave(CanBus& bus, std::uint8_t node) : bus_(bus), node_(node), sink_(*this) {
-    emcy_.attach(node, error_register_.add(fw::od::kErrorRegister, 0));
+  FakeSlave(CanBus& bus, std::uint8_t node) : bus_(bus), node_(node), sink_(*this), hooks_(*this) {
+    add_objects();
+    emcy_.attach(node, dict_.find(fw::od::kErrorRegister));
+    nmt.attach(node, dict_.find(fw::od::kProducerHeartbeat));
+    server_.configure(node, {});
+    // Booted before the test starts: Pre-operational, its boot-up message not on the bus.
+    Discard discard;
+    nmt.boot_up(dict_, 0, discard);
     cia402_.power_on();
-    set(fw::od::kDeviceType, 0x00020192);  // CiA 402 servo drive
-    set(fw::od::kSupportedDriveModes,
-        fw::supported_mode_bit(fw::ModeOfOperation::kCyclicSyncTorque));
-    set(fw::od::kRatedTorque, 50000);
-    set(fw::od::kEncoderIncrements, 1u << 20);
-    set(fw::od::kEncoderMotorRevolutions, 1);
   }
 
   // ---- knobs ----
-  bool boots = true;  // answers NMT reset with a boot-up message
+  bool boots = true;  // after an NMT reset: boot-up message, else stays in Initialisation
   bool answers_sdo = true;
   bool answers_sync = true;     // TPDO1 after SYNC when Operational
   bool ignores_writes = false;  // SDO write confirmed but value not stored (read-back test)
@@ -61,19 +72,24 @@ class FakeSlave {
   std::int32_t position = 0;
 
   // ---- state ----
-  fw::NmtState nmt = fw::NmtState::kPreOperational;
+  sim::canopen::NmtSlave nmt;  // CiA 301 NMT slave: state(), and what each state allows
   fw::Cia402State cia = fw::Cia402State::kSwitchOnDisabled;
   std::uint16_t controlword = 0;
   std::int16_t target_torque = 0;
-  std::vector<std::int16_t> applied_torques;  // target torque at each SYNC (Operation enabled)
-  std::vector<std::uint16_t> controlwords;    // every controlword received
-  std::map<Key, std::vector<std::uint8_t>> od;
+  std::vector<std::int16_t> applied_torques;    // target torque at each SYNC (Operation enabled)
+  std::vector<std::uint16_t> controlwords;      // every controlword received
+  std::map<Key, std::vector<std::uint8_t>> od;  // objects outside the dictionary
   int syncs = 0;
 
+  // An object of the dictionary (else of `od`), as the drive has it.
   void set(const fw::OdEntry& e, std::uint32_t v) {
-    od[{e.index, e.subindex}] = le_bytes(v, e.size());
+    if (const int s = dict_.find(e); s >= 0)
+      dict_.set(s, v);
+    else
+      od[{e.index, e.subindex}] = le_bytes(v, e.size());
   }
   std::uint32_t get(const fw::OdEntry& e) const {
+    if (const int s = dict_.find(e); s >= 0) return dict_.u(s);
     auto it = od.find({e.index, e.subindex});
     if (it == od.end()) return 0;
     return fw::get_uint_le(it->second.data(), std::min<std::size_t>(4, it->second.size()));
@@ -84,7 +100,24 @@ class FakeSlave {
   void send(const fw::Result<fw::CanFrame>& f) {
     if (f) (void)bus_.send(*f);
   }
-  void send_heartbeat() { send(fw::encode_heartbeat(node_, nmt)); }
+  // A heartbeat with the current NMT state now (outside the producer's period), as
+  // CANopenNode sends one on each state change; none in Initialisation.
+  void send_heartbeat() {
+    fw::NmtState s = fw::NmtState::kPreOperational;
+    switch (nmt.state()) {
+      case sim::canopen::NmtSlaveState::kInitialisation:
+        return;
+      case sim::canopen::NmtSlaveState::kPreOperational:
+        break;
+      case sim::canopen::NmtSlaveState::kOperational:
+        s = fw::NmtState::kOperational;
+        break;
+      case sim::canopen::NmtSlaveState::kStopped:
+        s = fw::NmtState::kStopped;
+        break;
+    }
+    send(fw::encode_heartbeat(node_, s));
+  }
   void send_emcy(std::uint16_t code, std::uint8_t reg = 0) {
     fw::Emcy e;
     e.node = node_;
@@ -124,16 +157,15 @@ class FakeSlave {
   void fault(std::uint16_t code = fw::emcy::kDeviceOverTemperature) {
     cia402_.fault();
     cia = cia402_.state();
-    emcy_.raise(error_register_, kFaultCondition, code, true, sink_);
+    emcy_.raise(dict_, kFaultCondition, code, true, sink_);
   }
 
-  // The drive's heartbeat producer (1017h, as configured by the master): call with the
-  // current time; sends when due (Pre-operational, Operational, Stopped).
+  // The drive's heartbeat producer (NmtSlave, 1017h as configured by the master): call with
+  // the current time; sends when due (Pre-operational, Operational, Stopped), the period
+  // counted from the boot-up or the last write of 1017h.
   void tick(std::uint64_t now_ns) {
-    const std::uint32_t period_ms = get(fw::od::kProducerHeartbeat);
-    if (period_ms == 0 || now_ns - last_heartbeat_ns_ < period_ms * 1'000'000ull) return;
-    last_heartbeat_ns_ = now_ns;
-    send_heartbeat();
+    now_ns_ = now_ns;
+    (void)nmt.on_time(dict_, now_ns, sink_);
   }
 
   // Processes every frame received, answering as a drive would.
@@ -150,42 +182,33 @@ class FakeSlave {
       case fw::Function::kNmt: {
         const auto m = fw::decode_nmt(f);
         if (!m || !fw::addressed_to(*m, node_)) return;
-        switch (m->command) {
-          case fw::NmtCommand::kResetNode:
-          case fw::NmtCommand::kResetCommunication:
-            nmt = fw::NmtState::kPreOperational;
-            cia402_.power_on();
-            cia = cia402_.state();
-            emcy_.reset();
-            if (boots) send(fw::encode_heartbeat(node_, fw::NmtState::kBootUp));
-            break;
-          case fw::NmtCommand::kStart:
-            if (ignore_nmt_starts > 0) {
-              --ignore_nmt_starts;
-              break;
-            }
-            nmt = fw::NmtState::kOperational;
-            send_heartbeat();
-            break;
-          case fw::NmtCommand::kStop:
-            nmt = fw::NmtState::kStopped;
-            send_heartbeat();
-            break;
-          case fw::NmtCommand::kEnterPreOperational:
-            nmt = fw::NmtState::kPreOperational;
-            send_heartbeat();
-            break;
+        if (m->command == fw::NmtCommand::kStart && ignore_nmt_starts > 0) {
+          --ignore_nmt_starts;  // lost on the way
+          return;
+        }
+        const sim::canopen::NmtChange change = nmt.on_command(m->command);
+        if (change.reset_application || change.reset_communication) {
+          cia402_.power_on();
+          cia = cia402_.state();
+          emcy_.reset();
+          if (boots) {
+            server_.reset();
+            nmt.boot_up(dict_, now_ns_, sink_);
+          } else
+            nmt.hold_in_initialisation();
+        } else if (change.from != sim::canopen::NmtSlaveState::kInitialisation) {
+          send_heartbeat();
         }
         return;
       }
       case fw::Function::kSync:
-        if (nmt != fw::NmtState::kOperational) return;
+        if (!nmt.pdo_allowed()) return;
         ++syncs;
         if (cia == fw::Cia402State::kOperationEnabled) applied_torques.push_back(target_torque);
         if (answers_sync) send_tpdo();
         return;
       case fw::Function::kRpdo1:
-        if (info->node != node_ || nmt != fw::NmtState::kOperational) return;
+        if (info->node != node_ || !nmt.pdo_allowed()) return;
         if (f.dlc == 4) {
           const auto c = fw::decode_rpdo1(f);
           if (c) {
@@ -197,13 +220,13 @@ class FakeSlave {
         }
         return;
       case fw::Function::kBroadcastRpdo: {
-        if (nmt != fw::NmtState::kOperational) return;
+        if (!nmt.pdo_allowed()) return;
         const auto t = fw::decode_broadcast_torque(f, slot);
         if (t) target_torque = *t;
         return;
       }
       case fw::Function::kSdoRx:
-        if (info->node == node_ && answers_sdo) sdo(f);
+        if (info->node == node_ && answers_sdo && nmt.sdo_allowed()) sdo(f);
         return;
       default:
         return;
@@ -228,23 +251,52 @@ class FakeSlave {
                                false, !fault_reset_works);
     cia = cia402_.state();
     if (e == sim::canopen::ControlwordEffect::kFaultReset)
-      emcy_.clear(error_register_, kFaultCondition, true, sink_);
+      emcy_.clear(dict_, kFaultCondition, true, sink_);
   }
 
+  // The scripted layer first (aborts on request, objects outside the dictionary), then the
+  // SdoServer; a segment goes to whichever started the transfer.
   void sdo(const fw::CanFrame& f) {
     const auto r = fw::decode_sdo_request(f);
-    if (!r) return;
-    const fw::SdoMessage& m = *r;
-    const Key k{m.index, m.subindex};
-    switch (m.type) {
-      case fw::SdoType::kDownloadInitiate:
-        if (auto it = abort_on_write.find(k); it != abort_on_write.end()) {
+    if (r && r->type == fw::SdoType::kAbort) {
+      aborts_received.push_back(r->abort_code);
+      server_.reset();
+      return;
+    }
+    if (r) {
+      const fw::SdoMessage& m = *r;
+      const Key k{m.index, m.subindex};
+      const bool initiate =
+          m.type == fw::SdoType::kDownloadInitiate || m.type == fw::SdoType::kUploadInitiate;
+      if (initiate) {
+        const auto& aborts =
+            m.type == fw::SdoType::kDownloadInitiate ? abort_on_write : abort_on_read;
+        if (auto it = aborts.find(k); it != aborts.end()) {
+          server_.reset();
           send(fw::sdo_abort(node_, fw::SdoRole::kServer, m.index, m.subindex, it->second));
           return;
         }
+        scripted_transfer_ = dict_.find(m.index, m.subindex) < 0;
+      }
+      if (scripted_transfer_) {
+        if (initiate) server_.reset();
+        scripted_sdo(m);
+        return;
+      }
+    }
+    server_.configure(node_, {false, upload_without_size});
+    fw::CanFrame response;
+    if (server_.on_request(f, dict_, hooks_, response)) (void)bus_.send(response);
+  }
+
+  // An object outside the dictionary: stored as the bytes written, read back as stored.
+  void scripted_sdo(const fw::SdoMessage& m) {
+    const Key k{m.index, m.subindex};
+    switch (m.type) {
+      case fw::SdoType::kDownloadInitiate:
         if (m.expedited) {
           if (!ignores_writes)
-            od[k] = std::vector<std::uint8_t>(m.data.begin(), m.data.begin() + m.data_len);
+            store(k, std::vector<std::uint8_t>(m.data.begin(), m.data.begin() + m.data_len));
         } else {
           seg_key_ = k;
           seg_buf_.assign(m.size, 0);
@@ -261,14 +313,10 @@ class FakeSlave {
         }
         send(fw::sdo_download_segment_response(node_, m.toggle));
         if (rx_.done())
-          od[seg_key_] = std::vector<std::uint8_t>(rx_.bytes().begin(), rx_.bytes().end());
+          store(seg_key_, std::vector<std::uint8_t>(rx_.bytes().begin(), rx_.bytes().end()));
         return;
       }
       case fw::SdoType::kUploadInitiate: {
-        if (auto it = abort_on_read.find(k); it != abort_on_read.end()) {
-          send(fw::sdo_abort(node_, fw::SdoRole::kServer, m.index, m.subindex, it->second));
-          return;
-        }
         auto it = od.find(k);
         if (it == od.end()) {
           send(fw::sdo_abort(node_, fw::SdoRole::kServer, m.index, m.subindex,
@@ -299,8 +347,7 @@ class FakeSlave {
         return;
       }
       case fw::SdoType::kAbort:
-        aborts_received.push_back(m.abort_code);
-        return;
+        return;  // handled in sdo()
     }
   }
 
@@ -308,6 +355,66 @@ class FakeSlave {
   std::vector<std::uint32_t> aborts_received;
 
  private:
+  void store(const Key& k, std::vector<std::uint8_t> bytes) { od[k] = std::move(bytes); }
+
+  // The emulator's objects (sim/drive_emulator.cpp build()) with this drive's values.
+  void add_objects() {
+    namespace o = fw::od;
+    dict_.add(o::kDeviceType, 0x00020000u | o::kDeviceProfileCia402);  // servo drive
+    dict_.add(o::kErrorRegister, 0);
+    dict_.add(o::kCobIdSync, fw::kSyncCobId);
+    dict_.add(o::kCommunicationCyclePeriod, 0);
+    dict_.add(o::kCobIdEmcy, fw::cob_id(fw::Function::kEmcy, node_));
+    dict_.add(o::kConsumerHeartbeatCount, 1);
+    dict_.add(o::consumer_heartbeat(1), 0);
+    dict_.add(o::kProducerHeartbeat, 0);
+    dict_.add(o::kSyncCounterOverflow, 0);
+    dict_.add(o::kAbortConnectionOption, 0);
+    dict_.add(o::kErrorCode, 0);
+    dict_.add(o::kControlword, 0);
+    dict_.add(o::kStatusword, 0);
+    dict_.add(o::kQuickStopOption, 0);
+    dict_.add(o::kShutdownOption, 0);
+    dict_.add(o::kDisableOperationOption, 0);
+    dict_.add(o::kHaltOption, 0);
+    dict_.add(o::kFaultReactionOption, 0);
+    dict_.add(o::kModesOfOperation, 0);
+    dict_.add(o::kModesOfOperationDisplay, 0);
+    dict_.add(o::kPositionActual, 0);
+    dict_.add(o::kVelocityActual, 0);
+    dict_.add(o::kTargetTorque, 0);
+    dict_.add(o::kMaxTorque, 0);
+    dict_.add(o::kRatedTorque, 50000);
+    dict_.add(o::kTorqueActual, 0);
+    dict_.add(o::kEncoderResolutionCount, o::kEncoderMotorRevolutions.subindex);
+    dict_.add(o::kEncoderIncrements, 1u << 20);
+    dict_.add(o::kEncoderMotorRevolutions, 1);
+    dict_.add(o::kInterpolationPeriodCount, o::kInterpolationPeriodIndex.subindex);
+    dict_.add(o::kInterpolationPeriodValue, 1);
+    dict_.add(o::kInterpolationPeriodIndex, static_cast<std::uint8_t>(-3));
+    dict_.add(o::kDigitalInputs, 0);
+    dict_.add(o::kSupportedDriveModes,
+              fw::supported_mode_bit(fw::ModeOfOperation::kCyclicSyncTorque));
+    sim::canopen::PdoEngine::add_objects(dict_, node_);
+  }
+
+  // Behind the SdoServer: a download is stored (unless ignores_writes); 1017h restarts the
+  // heartbeat producer.
+  struct Hooks final : sim::canopen::SdoServerHooks {
+    explicit Hooks(FakeSlave& s) : slave(s) {}
+    std::uint32_t download(int slot, std::uint32_t value) noexcept override {
+      if (slave.ignores_writes) return 0;
+      slave.dict_.set(slot, value);
+      if (slot == slave.dict_.find(fw::od::kProducerHeartbeat))
+        slave.nmt.producer_time_written(slave.dict_, slave.now_ns_);
+      return 0;
+    }
+    void before_upload(int) noexcept override {}
+    FakeSlave& slave;
+  };
+  struct Discard final : sim::canopen::FrameSink {
+    void send(const fw::CanFrame&) noexcept override {}
+  };
   struct Sink final : sim::canopen::FrameSink {
     explicit Sink(FakeSlave& s) : slave(s) {}
     void send(const fw::CanFrame& f) noexcept override { (void)slave.bus_.send(f); }
@@ -319,9 +426,12 @@ class FakeSlave {
   std::uint8_t node_;
   Sink sink_;
   sim::canopen::Cia402Slave cia402_;
-  sim::canopen::ObjectDictionary error_register_;  // 1001h, owned by emcy_
+  Hooks hooks_;
+  sim::canopen::ObjectDictionary dict_;  // 1001h owned by emcy_, 1017h read by nmt
+  sim::canopen::SdoServer server_;
+  bool scripted_transfer_ = false;  // the SDO transfer under way is the scripted layer's
   sim::canopen::EmcyProducer emcy_;
-  std::uint64_t last_heartbeat_ns_ = 0;
+  std::uint64_t now_ns_ = 0;  // the last tick()
   Key seg_key_{};
   std::vector<std::uint8_t> seg_buf_;
   fw::SdoSegmentReceiver rx_{std::span<std::uint8_t>{}};
