@@ -153,9 +153,33 @@ $(fifo 70) "$dualv" sim --can vcan0 --config "$config" --status-every 0 --free-r
   >"$tmp/sim.log" 2>&1 &
 sim_pid=$!
 wait_for "$tmp/sim.log" "drives booted" 20 || fail "dualv sim did not start"
-"$dualv" run --serve --can vcan0 --config "$config" --lcm "$url" --keys "$tmp/keys" \
-  -o "$tmp/out" >"$tmp/run.log" 2>&1 &
-run_pid=$!
+# The service. Its boot's SDO exchanges have the configured timeout (can.timeouts.sdo, 0.1 s),
+# which a guest frozen by a loaded host can exceed: a boot that ends on an SDO timeout while
+# the stall probe saw the guest frozen is a NOTE (guest timing) and the service is started again
+# (at most 3 times); any other boot failure fails the test.
+boot_retries=0
+for boot in 1 2 3; do
+  : >"$tmp/run.log"
+  "$dualv" run --serve --can vcan0 --config "$config" --lcm "$url" --keys "$tmp/keys" \
+    -o "$tmp/out" >"$tmp/run.log" 2>&1 &
+  run_pid=$!
+  for ((i = 0; i < 300; ++i)); do
+    grep -q "serving: waiting" "$tmp/run.log" && break
+    kill -0 "$run_pid" 2>/dev/null || break
+    sleep 0.2
+  done
+  grep -q "serving: waiting" "$tmp/run.log" && break
+  kill "$run_pid" 2>/dev/null
+  wait "$run_pid" 2>/dev/null
+  run_pid=
+  if ! grep -q "SDO timeout" "$tmp/run.log" || [[ ! -s "$tmp/stalls.txt" || $boot -eq 3 ]]; then
+    fail "no service (boot $boot): $(grep -m1 "error" "$tmp/run.log")"
+  fi
+  ((++boot_retries))
+  echo "NOTE (guest timing): the service's boot $boot ended on an SDO timeout with the guest" \
+    "frozen $(awk '{s += $2 - $1} END {printf "%.1f", s}' "$tmp/stalls.txt") s so far: started again"
+  cp "$tmp/run.log" "$tmp/run.boot$boot.log"
+done
 
 # Timing-watchdog stops (what a guest freeze causes), not what this test checks: see above.
 timing_only() {  # timing_only FIRST_LINE: 0 when every stopping fault from that line of
@@ -198,7 +222,7 @@ run_paper() {
 }
 
 # 1. Boot, then idle 5 s: the robot state is published while idle.
-wait_for "$tmp/run.log" "serving: waiting" 60 || fail "no service (boot)"
+grep -q "serving: waiting" "$tmp/run.log" || fail "no service (boot)"
 boot_done=$(date +%s)
 sleep 5
 kill -0 "$run_pid" 2>/dev/null || fail "the service ended while idle"
@@ -337,6 +361,6 @@ grep -q " 0 lost" "$tmp/capture.err" || fail "the capture lost frames: $(tail -n
   --expect-enables "$enables" "$capture" || fail "wire check"
 echo "PASS: serve over vcan with the shipped configuration: idle state published; paper done;" \
   "stream done; e-stop during preparation refused; e-stop while running SS1 -> STO; reset;" \
-  "paper done; SIGINT exit 0; wire checked (timing-watchdog retries: $retries, idle resets: $idle_resets)"
+  "paper done; SIGINT exit 0; wire checked (timing-watchdog retries: $retries, idle resets: $idle_resets, boot retries: $boot_retries)"
 [[ -z $not_shown ]] || echo "NOTE (guest timing): not shown in this guest (every attempt stopped by" \
   "a timing watchdog; the stops checked):$not_shown"
