@@ -156,7 +156,8 @@ wait_for "$tmp/sim.log" "drives booted" 20 || fail "dualv sim did not start"
 # The service. Its boot's SDO exchanges have the configured timeout (can.timeouts.sdo, 0.1 s),
 # which a guest frozen by a loaded host can exceed: a boot that ends on an SDO timeout while
 # the stall probe saw the guest frozen is a NOTE (guest timing) and the service is started again
-# (at most 3 times); any other boot failure fails the test.
+# (at most 3 times; three such boots skip the test, as a guest too slow for the loop's rate
+# does below); any other boot failure fails the test.
 boot_retries=0
 for boot in 1 2 3; do
   : >"$tmp/run.log"
@@ -172,8 +173,14 @@ for boot in 1 2 3; do
   kill "$run_pid" 2>/dev/null
   wait "$run_pid" 2>/dev/null
   run_pid=
-  if ! grep -q "SDO timeout" "$tmp/run.log" || [[ ! -s "$tmp/stalls.txt" || $boot -eq 3 ]]; then
+  if ! grep -q "SDO timeout" "$tmp/run.log" || [[ ! -s "$tmp/stalls.txt" ]]; then
     fail "no service (boot $boot): $(grep -m1 "error" "$tmp/run.log")"
+  fi
+  if [[ $boot -eq 3 ]]; then  # as the rate check below: a guest that cannot run this at all
+    echo "skipped: three boots of the drives ended on SDO timeouts (can.timeouts.sdo) with the" \
+      "guest frozen $(awk 'NR == 1 {a = $1} {s += $2 - $1; b = $2} END {printf "%.1f s of %.1f s", s, b - a}' "$tmp/stalls.txt")" \
+      "by its host (tests/hil/README.md); run it on a less loaded host or a PC with vcan"
+    exit 77
   fi
   ((++boot_retries))
   echo "NOTE (guest timing): the service's boot $boot ended on an SDO timeout with the guest" \
