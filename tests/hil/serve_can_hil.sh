@@ -43,7 +43,7 @@
 #     a whole is not a dead master (as paper_hil.sh)
 #   - the emulator runs SCHED_FIFO 70 below the control loop (80): it answers a cycle's SYNC
 #     while the loop sleeps, and reads the cycle's frames in one wake-up (the master sends them
-#     in one sendmmsg); the capture (SCHED_FIFO 95) wakes every 5 ms, not per frame, and fails
+#     in one sendmmsg); the capture (SCHED_FIFO 95) wakes every 20 ms, not per frame, and fails
 #     the test if its 8 MB receive buffer ever overflowed. This is what lets the one virtual
 #     CPU carry the loop at all (tests/hil/README.md "Timing in the guest")
 # Usage: serve_can_hil.sh DUALV_BINARY CONFIG_YAML PROGRAM_YAML CAN_CAPTURE_BINARY
