@@ -278,6 +278,10 @@ int run(const RunArgs& args) {
                args.can);
     return 2;
   }
+  // The drives' clock: each cycle's reads and writes take the loop's wake-up as their time (no
+  // clock read of their own: drivers/canopen/cycle_clock.hpp); declared first, it outlives them.
+  drivers::canopen::SteadyClock steady_clock;
+  drivers::canopen::CycleClock cycle_clock(steady_clock);
   std::unique_ptr<drivers::CanopenDrives> drives;
   // A paced loop's real-time thread is set up before the drives boot (mlockall and the rest
   // take a while), so their first cycle follows the priming at once.
@@ -359,6 +363,7 @@ int run(const RunArgs& args) {
               : args.serve ? Pacing::kLoopThread
                            : Pacing::kCallerThread;
   mo.memory_locked = memory_locked;
+  if (!args.can.empty()) mo.cycle_clock = &cycle_clock;  // paced on `mono`: CLOCK_MONOTONIC
   mo.telemetry = &telemetry;
   mo.commands = commands.get();
   mo.service = &service;
@@ -384,6 +389,7 @@ int run(const RunArgs& args) {
     opts.interface = args.can;
     opts.control_period_s = cfg.period();
     opts.log = [](const std::string& line) { fmt::print("  {}\n", line); };
+    opts.clock = &cycle_clock;
     fmt::print("dualv run: booting the drives on {}\n", args.can);
     drives = drivers::open_canopen_drives(can, opts);
     to_come.attach(drives->actuators());
@@ -411,6 +417,7 @@ int run(const RunArgs& args) {
   if (args.serve) {
     const int rc = serve(cfg, machine, *commands, service);
     machine.shutdown();
+    cycle_clock.end_cycle();  // the loop has ended: real time again for the shut-down
     if (drives) drives->shut_down(leave_log);  // disabled, then as can.on_exit says
     return rc;
   }
@@ -453,6 +460,7 @@ int run(const RunArgs& args) {
                r.ok ? "" : ": " + r.failure);
   }
   const control::RunReport loop_report = machine.shutdown();
+  cycle_clock.end_cycle();
   if (drives) drives->shut_down(leave_log);  // disabled, then as can.on_exit says
   for (auto& r : runs) r.loop = loop_report.stats;
   // The loop is over: systemd stops watching while the results are written.

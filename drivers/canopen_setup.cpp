@@ -64,7 +64,8 @@ std::unique_ptr<CanopenDrives> open_canopen_drives(const CanConfig& config,
   auto bus = std::make_unique<SocketCanBus>(sc);
   auto clock = std::make_unique<canopen::SteadyClock>();
   canopen::SocketCanWaiter waiter(*bus, *clock);
-  auto set = boot_actuator_set(*bus, *clock, waiter, c, options.log);
+  auto set = boot_actuator_set(*bus, options.clock != nullptr ? *options.clock : *clock, waiter, c,
+                               options.log);
   return std::make_unique<CanopenDrives>(std::move(bus), std::move(clock), std::move(set));
 }
 

@@ -35,6 +35,10 @@ struct CanopenSetupOptions {
   std::string interface;          // overrides can.interface when not empty (--can IFACE)
   double control_period_s = 0.0;  // checked against can.sync.period when > 0
   std::function<void(const std::string&)> log;  // progress lines; may be empty
+  // The clock the actuator set reads (must outlive the drives); null: the drives' own
+  // CLOCK_MONOTONIC. A paced loop passes its canopen::CycleClock over that same clock
+  // (drivers/canopen/cycle_clock.hpp): a cycle's reads and writes then take its wake-up time.
+  const canopen::Clock* clock = nullptr;
 };
 
 // Booted drives on their own SocketCAN socket; owns the bus and the clock.

@@ -119,7 +119,11 @@ class Machine::Hooks final : public control::LoopHooks {
         options_(options),
         plant_(plant) {}
 
-  void before_cycle(control::Executor& ex, const control::CycleInfo&) noexcept override {
+  void before_cycle(control::Executor& ex, const control::CycleInfo& info) noexcept override {
+    // The drives' reads and writes of this cycle take its wake-up as their time (one clock
+    // read less per cycle: drivers/canopen/cycle_clock.hpp).
+    if (options_.cycle_clock)
+      options_.cycle_clock->begin_cycle(static_cast<std::uint64_t>(info.wake_ns));
     if (options_.service) options_.service->beat();  // the watchdog's proof of life
     if (!options_.commands) return;
     // Setpoints are absolute poses: each replaces the last, so all are handed on in order;
@@ -135,6 +139,7 @@ class Machine::Hooks final : public control::LoopHooks {
 
   void after_cycle(const control::Executor& ex, const control::CycleRecord& rec,
                    const control::CycleInfo& info) noexcept override {
+    if (options_.cycle_clock) options_.cycle_clock->end_cycle();
     double internal = std::nan("");
     if (plant_ && !failed_.load(std::memory_order_relaxed)) {
       if (plant_->advance(period_) == sim::PlantStatus::kOk)

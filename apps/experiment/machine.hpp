@@ -23,6 +23,7 @@
 #include "apps/experiment/closed_loop.hpp"
 #include "control/loop/executor.hpp"
 #include "control/loop/loop_thread.hpp"
+#include "drivers/canopen/cycle_clock.hpp"
 #include "sim/plant.hpp"
 
 namespace dualv::apps {
@@ -59,6 +60,9 @@ struct MachineOptions {
   bool memory_locked = false;
   // Called from start() with what the real-time set-up obtained (paced machines).
   std::function<void(const control::RealtimeStatus&)> on_realtime;
+  // The CANopen drives' clock (drivers/canopen/cycle_clock.hpp), stamped with each cycle's
+  // wake-up; only for a loop paced on the monotonic clock (the clock `io` reads outside cycles).
+  drivers::canopen::CycleClock* cycle_clock = nullptr;
 };
 
 class Machine {

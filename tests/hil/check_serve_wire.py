@@ -15,8 +15,13 @@ the wire (the service's loop runs from boot to shutdown: idle, programs, stream,
   - no target torque above min(safety.torque.max, the drive's max_torque), from per mille of
     the drive's rated_torque (RPDO1: controlword u16 + target torque i16, little endian;
     firmware_if/pdo.hpp), half an LSB allowed
-  - with --expect-enables N: exactly N enable episodes (spans in which some drive's
+  - with --expect-enables N (or MIN-MAX): exactly N (MIN to MAX) enable episodes (spans in which some drive's
     controlword is "enable operation", 0Fh); each program or stream that ran is one
+  - every stop is a stop on the wire, whatever ended it (a program's end, an e-stop, a timing
+    watchdog in a frozen guest): a target torque other than 0 only with the controlword
+    "enable operation" (so torque is 0 from the first RPDO of an episode's end on), and after
+    every episode each drive's statusword (TPDO1 180h + node: statusword u16 + position i32)
+    leaves "operation enabled" (CiA 402: statusword & 6Fh == 27h) before the next episode
 Exit status 0 when everything holds, 1 otherwise (every problem is printed).
 """
 import argparse
@@ -61,12 +66,13 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--config", required=True, help="the YAML the service used")
     ap.add_argument("--stalls", help="the guest stall probe's intervals (start end per line)")
-    ap.add_argument("--expect-enables", type=int, help="number of enable episodes expected")
+    ap.add_argument("--expect-enables", help="number of enable episodes expected: N or MIN-MAX")
     ap.add_argument("capture", help="candump -l log")
     a = ap.parse_args()
     drives, deadline, safety_max = parse_config(a.config)
     stalls = parse_stalls(a.stalls)
     by_cob = {0x200 + d["node"]: d for d in drives}
+    tpdo_of = {0x180 + d["node"]: 0x200 + d["node"] for d in drives}
     errors = []
     allf = list(frames(a.capture))
     sync_ts = [ts for ts, cob, _ in allf if cob == 0x080]
@@ -107,8 +113,18 @@ def main():
     enabled = {cob: False for cob in by_cob}
     episodes = []  # [start, end]
     syncs = 0
+    torque_off = 0  # RPDOs with a torque but no "enable operation"
+    # Per drive, since the last episode ended: None (in an episode or before the first), False
+    # (the drive still reported "operation enabled"), True (it left it).
+    left_enabled = {cob: None for cob in by_cob}
+    not_left = 0
     for ts, cob, data in allf:
         if ts < first or ts > last:
+            continue
+        if cob in tpdo_of and len(data) >= 2:
+            rc = tpdo_of[cob]
+            if left_enabled[rc] is False and (int.from_bytes(data[0:2], "little") & 0x6F) != 0x27:
+                left_enabled[rc] = True
             continue
         if cob == 0x080:
             syncs += 1
@@ -143,20 +159,45 @@ def main():
         worst_nm = max(worst_nm, abs(nm))
         if abs(nm) > limit + 0.5 * d["rated"] / 1000.0:
             errors.append(f"{ts:.6f} {cob:03X}: target torque {nm:.3f} N m above the limit {limit} N m")
+        if tq != 0 and (cw & 0x0F) != 0x0F:
+            torque_off += 1
+            if torque_off <= 5:
+                errors.append(f"{ts:.6f} {cob:03X}: target torque {nm:.3f} N m with controlword "
+                              f"{cw:04X}h (not enable operation)")
         was = any(enabled.values())
         enabled[cob] = (cw & 0x0F) == 0x0F
         now = any(enabled.values())
         if now and not was:
+            for c, v in left_enabled.items():
+                if v is False:
+                    not_left += 1
+                    errors.append(f"{ts:.6f}: an episode starts but drive {c - 0x200} never "
+                                  "reported leaving operation enabled after the previous one")
+                left_enabled[c] = None
             episodes.append([ts, ts])
+        if was and not now:
+            for c in left_enabled:
+                left_enabled[c] = False
         if now:
             episodes[-1][1] = ts
     for c in by_cob:
         if c not in last_rpdo:
             errors.append(f"no RPDO {c:03X} while the service ran")
+    for c, v in left_enabled.items():
+        if v is False:
+            not_left += 1
+            errors.append(f"drive {c - 0x200} never reported leaving operation enabled after the "
+                          "last episode")
+    if torque_off > 5:
+        errors.append(f"{torque_off} RPDOs with a torque but no enable operation in all")
     if missing > 5 or duplicated > 5:
         errors.append(f"{missing} missing and {duplicated} duplicated RPDOs in all")
-    if a.expect_enables is not None and len(episodes) != a.expect_enables:
-        errors.append(f"{len(episodes)} enable episodes on the wire, expected {a.expect_enables}")
+    if a.expect_enables is not None:
+        lo, _, hi = a.expect_enables.partition("-")
+        if not lo.isdigit() or not (hi or lo).isdigit():
+            raise SystemExit(f"{TOOL}: --expect-enables N or MIN-MAX, got {a.expect_enables}")
+        if not int(lo) <= len(episodes) <= int(hi or lo):
+            errors.append(f"{len(episodes)} enable episodes on the wire, expected {a.expect_enables}")
     if gaps["SYNC"] > 10 or gaps["RPDO"] > 10:
         errors.append(f"{gaps['SYNC']} SYNC gaps and {gaps['RPDO']} RPDO gaps above the deadline in all")
     span = ", ".join(f"{s - first:.2f}-{e - first:.2f} s" for s, e in episodes)
@@ -166,7 +207,8 @@ def main():
           f"{gaps['SYNC']} SYNC + {gaps['RPDO']} RPDO gaps, {excused['SYNC']} + {excused['RPDO']} "
           f"more excused by {len(stalls)} guest freezes of "
           f"{sum(b - a for a, b in stalls) * 1e3:.0f} ms); max |target torque| {worst_nm:.2f} N m "
-          f"(limit {safety_max} N m); {len(episodes)} enable episodes ({span}): "
+          f"(limit {safety_max} N m, none without enable operation: {torque_off == 0}); "
+          f"{len(episodes)} enable episodes ({span}), each left by every drive: {not_left == 0}: "
           f"{'ok' if not errors else 'FAILED'}")
     for e in errors[:40]:
         print("  " + e)

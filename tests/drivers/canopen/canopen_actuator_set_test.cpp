@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "common/config_error.hpp"
+#include "drivers/canopen/cycle_clock.hpp"
 #include "fake_slave.hpp"
 #include "tests/support/allocation_counter.hpp"
 
@@ -222,6 +223,63 @@ TEST_F(SetFixture, HeartbeatTimeoutAtExactlyT) {
   EXPECT_EQ(set->health(0).health, DriveHealth::kStale);
   EXPECT_STREQ(set->health(0).reason, "heartbeat timed out");
   EXPECT_NE(fb.drive[1].state, DriveState::kOffline);
+}
+
+// The loop's clock (drivers/canopen/cycle_clock.hpp): a stamped cycle's read() and write() make
+// no clock read of their own, and the drives' timeouts are judged at the cycle's wake-up.
+TEST(CanopenActuatorSetCycleClock, ACycleReadsNoClockAndJudgesTimeoutsAtItsWakeUp) {
+  struct CountingClock final : canopen::Clock {
+    std::uint64_t now_ns() const noexcept override {
+      ++reads;
+      return t;
+    }
+    std::uint64_t t = 1'000 * kMs;
+    mutable int reads = 0;
+  } base;
+  canopen::CycleClock clock(base);
+  InProcessHub hub(5, 1024);
+  std::vector<std::unique_ptr<FakeSlave>> slaves;
+  for (int i = 0; i < 4; ++i) {
+    slaves.push_back(std::make_unique<FakeSlave>(hub.endpoint(static_cast<std::size_t>(i) + 1),
+                                                 static_cast<std::uint8_t>(i + 1)));
+    slaves.back()->nmt = fw::NmtState::kOperational;
+    slaves.back()->slot = static_cast<std::uint8_t>(i);
+  }
+  const CanConfig config = default_can_config();
+  CanopenActuatorSet set(hub.endpoint(0), clock, config);
+  ActuatorFeedback fb;
+  ActuatorCommand cmd;
+  cmd.n = 4;
+  // One cycle woken at `wake` while the base clock says `base_now` (the cycle's work ran on).
+  const auto cycle = [&](std::uint64_t wake, std::uint64_t base_now) {
+    base.t = base_now;
+    hub.set_time_ns(base_now);
+    const int reads = base.reads;
+    clock.begin_cycle(wake);
+    set.read(fb);
+    set.write(cmd);
+    clock.end_cycle();
+    EXPECT_EQ(base.reads, reads) << "a clock read inside the cycle woken at " << wake;
+    for (auto& s : slaves) s->step();
+  };
+  cycle(1'000 * kMs, 1'000 * kMs);
+  cycle(1'001 * kMs, 1'001 * kMs);
+  for (auto& s : slaves) s->send_heartbeat();
+  const std::uint64_t t0 = 1'002 * kMs;
+  cycle(t0, t0);                                            // heartbeats taken at t0
+  for (int i = 1; i < 4; ++i) slaves[i]->send_heartbeat();  // drive 0 goes silent
+  const std::uint64_t timeout = config.drive_heartbeat_timeout_ns;
+  cycle(t0 + timeout - 1, t0 + timeout + 5 * kMs);  // woken 1 ns before the timeout
+  EXPECT_NE(fb.drive[0].state, DriveState::kOffline);
+  EXPECT_EQ(set.events().heartbeat_lost, 0u);
+  cycle(t0 + timeout, t0 + timeout + 6 * kMs);  // woken at the timeout
+  EXPECT_EQ(fb.drive[0].state, DriveState::kOffline);
+  EXPECT_EQ(set.events().heartbeat_lost, 1u);
+  EXPECT_NE(fb.drive[1].state, DriveState::kOffline);
+  // Outside a cycle (priming, shut-down) the set reads the base clock again.
+  const int reads = base.reads;
+  set.write(cmd);
+  EXPECT_GT(base.reads, reads);
 }
 
 TEST_F(SetFixture, EmcyRaisesAndZeroClears) {
