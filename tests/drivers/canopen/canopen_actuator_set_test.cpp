@@ -242,7 +242,7 @@ TEST(CanopenActuatorSetCycleClock, ACycleReadsNoClockAndJudgesTimeoutsAtItsWakeU
   for (int i = 0; i < 4; ++i) {
     slaves.push_back(std::make_unique<FakeSlave>(hub.endpoint(static_cast<std::size_t>(i) + 1),
                                                  static_cast<std::uint8_t>(i + 1)));
-    slaves.back()->nmt = fw::NmtState::kOperational;
+    (void)slaves.back()->nmt.on_command(fw::NmtCommand::kStart);  // booted
     slaves.back()->slot = static_cast<std::uint8_t>(i);
   }
   const CanConfig config = default_can_config();
