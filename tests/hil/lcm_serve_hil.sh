@@ -41,19 +41,7 @@ grep -q "starting " "$tmp/run.log" && fail "a start with an unknown key ran"
 # The stop causes of the loop's own timing watchdogs (safety/fault.hpp), in the fault log.
 timing_sto='"cause":"\(consecutive deadline misses\|stale feedback\)","reaction":"STO"'
 reset_timing_stop() {  # a stop the guest's timing latched is reset (a reset of nothing is harmless)
-  local n
-  n=$(grep -c "reset accepted\|reset refused" "$tmp/run.log")
-  "$dualv" reset --key "$tmp/keys/lab1.key" --lcm "$url" >/dev/null
-  wait_for_count "$tmp/run.log" "reset accepted\|reset refused" $((n + 1)) 20 ||
-    fail "a signed reset got no answer"
-}
-wait_for_count() {  # FILE PATTERN N SECONDS: the file has N lines matching PATTERN
-  local i
-  for ((i = 0; i < $4 * 20; ++i)); do
-    [[ $(grep -c -- "$2" "$1") -ge $3 ]] && return 0
-    sleep 0.05
-  done
-  return 1
+  signed_reset "$dualv" "$tmp/keys/lab1.key" "$url" "$tmp/run.log" || fail "a signed reset was not received"
 }
 ran=0
 for ((attempt = 1; attempt <= 3 && ran == 0; ++attempt)); do
