@@ -21,29 +21,29 @@ skip_outside_lcm_guest() {
   fi
 }
 
-# count FILE PATTERN: the lines of FILE matching PATTERN (grep's basic regex); 0 without a file.
-count() { grep -c -- "$2" "$1" 2>/dev/null || true; }
+# lines_matching FILE PATTERN: the lines of FILE matching PATTERN (grep's basic regex); 0 without a file.
+lines_matching() { grep -c -- "$2" "$1" 2>/dev/null || true; }
 
-# wait_for_count FILE PATTERN N SECONDS: 0 as soon as FILE has N lines matching PATTERN, 1 after
+# wait_for_lines FILE PATTERN N SECONDS: 0 as soon as FILE has N lines matching PATTERN, 1 after
 # SECONDS.
-wait_for_count() {
+wait_for_lines() {
   local i
   for ((i = 0; i < $4 * 20; ++i)); do
-    [[ $(count "$1" "$2") -ge $3 ]] && return 0
+    [[ $(lines_matching "$1" "$2") -ge $3 ]] && return 0
     sleep 0.05
   done
   return 1
 }
 
-# signed_reset DUALV KEY URL LOG: a signed `dualv reset` to a `dualv run --serve` logging to LOG.
+# serve_reset DUALV KEY URL LOG: a signed `dualv reset` to a `dualv run --serve` logging to LOG.
 # Waits until the service logged the reset's receipt, then (up to 5 s) for the loop's answer,
 # which comes only when a stop was latched ("reset accepted" / "reset refused"). 1 if the
 # receipt never came.
-signed_reset() {
+serve_reset() {
   local got answers
-  got=$(count "$4" "reset (key ")
-  answers=$(count "$4" "reset accepted\|reset refused")
+  got=$(lines_matching "$4" "reset (key ")
+  answers=$(lines_matching "$4" "reset accepted\|reset refused")
   "$1" reset --key "$2" --lcm "$3" >/dev/null || return 1
-  wait_for_count "$4" "reset (key " $((got + 1)) 20 || return 1
-  wait_for_count "$4" "reset accepted\|reset refused" $((answers + 1)) 5 || true
+  wait_for_lines "$4" "reset (key " $((got + 1)) 20 || return 1
+  wait_for_lines "$4" "reset accepted\|reset refused" $((answers + 1)) 5 || true
 }

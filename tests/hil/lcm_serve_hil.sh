@@ -41,14 +41,14 @@ grep -q "starting " "$tmp/run.log" && fail "a start with an unknown key ran"
 # The stop causes of the loop's own timing watchdogs (safety/fault.hpp), in the fault log.
 timing_sto='"cause":"\(consecutive deadline misses\|stale feedback\)","reaction":"STO"'
 reset_timing_stop() {  # a stop the guest's timing latched is reset (a reset of nothing is harmless)
-  signed_reset "$dualv" "$tmp/keys/lab1.key" "$url" "$tmp/run.log" || fail "a signed reset was not received"
+  serve_reset "$dualv" "$tmp/keys/lab1.key" "$url" "$tmp/run.log" || fail "a signed reset was not received"
 }
 ran=0
 for ((attempt = 1; attempt <= 3 && ran == 0; ++attempt)); do
   grep -q "torque off (STO)" "$tmp/run.log" && reset_timing_stop
   ends=$(grep -c "paper.yaml done\|paper.yaml STOPPED\|refused: the last stop" "$tmp/run.log")
   "$dualv" start "$program" --key "$tmp/keys/lab1.key" --lcm "$url" >/dev/null
-  wait_for_count "$tmp/run.log" "paper.yaml done\|paper.yaml STOPPED\|refused: the last stop" \
+  wait_for_lines "$tmp/run.log" "paper.yaml done\|paper.yaml STOPPED\|refused: the last stop" \
     $((ends + 1)) 60 || fail "the signed start got no answer"
   if grep -q "paper.yaml done" "$tmp/run.log"; then
     ran=1

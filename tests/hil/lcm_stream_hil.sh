@@ -43,13 +43,13 @@ fail() {
 }
 # The fault log's lines after the first $1.
 faults_since() { tail -n +"$(($1 + 1))" "$tmp/out/faults.jsonl" 2>/dev/null; }
-faults_now() { count "$tmp/out/faults.jsonl" .; }
+faults_now() { lines_matching "$tmp/out/faults.jsonl" .; }
 # A stop by one of the loop's own timing watchdogs (safety/fault.hpp causes) among those lines.
 timing_stop_in() {
   grep '"event":"fault"' | grep -qE '"cause":"(consecutive deadline misses|stale feedback)","reaction":"(SS1|STO)"'
 }
 # A signed reset before a try: clears a stop the guest's timing latched (harmless otherwise).
-reset() { signed_reset "$dualv" "$key" "$url" "$tmp/run.log" || fail "a signed reset was not received"; }
+reset() { serve_reset "$dualv" "$key" "$url" "$tmp/run.log" || fail "a signed reset was not received"; }
 wait_for "$tmp/run.log" "serving: waiting" 20 || fail "no service"
 
 # 1. A complete stream: start, 2 s of a 10 mm circle, signed stop: done, no fault.
@@ -58,10 +58,10 @@ for ((try = 1; try <= 3 && shown == 0; ++try)); do
   f0=$(faults_now)  # (before the reset: a timing stop may latch again right after it)
   reset
   f1=$(faults_now)  # what the reset cleared is before this
-  ends=$(count "$tmp/run.log" "stream done\|stream STOPPED\|refused: the last stop")
+  ends=$(lines_matching "$tmp/run.log" "stream done\|stream STOPPED\|refused: the last stop")
   "$dualv" stream --key "$key" --lcm "$url" --circle 0.01 --rate 100 --duration 2 \
     >"$tmp/stream1.log" 2>&1 || fail "dualv stream failed: $(cat "$tmp/stream1.log")"
-  wait_for_count "$tmp/run.log" "stream done\|stream STOPPED\|refused: the last stop" \
+  wait_for_lines "$tmp/run.log" "stream done\|stream STOPPED\|refused: the last stop" \
     $((ends + 1)) 20 || fail "the stream got no end"
   last=$(grep "stream done\|stream STOPPED\|refused: the last stop" "$tmp/run.log" | tail -1)
   if [[ $last == *"stream done"* ]]; then
@@ -84,12 +84,12 @@ shown=0
 for ((try = 1; try <= 5 && shown == 0; ++try)); do
   f0=$(faults_now)
   reset
-  starts=$(count "$tmp/run.log" "starting stream\|refused: the last stop")
-  stops=$(count "$tmp/run.log" "stream STOPPED\|stream done")
+  starts=$(lines_matching "$tmp/run.log" "starting stream\|refused: the last stop")
+  stops=$(lines_matching "$tmp/run.log" "stream STOPPED\|stream done")
   "$dualv" stream --key "$key" --lcm "$url" --circle 0.01 --rate 100 --duration 0 \
     >"$tmp/stream2.log" 2>&1 &
   streamer=$!
-  wait_for_count "$tmp/run.log" "starting stream\|refused: the last stop" $((starts + 1)) 10 ||
+  wait_for_lines "$tmp/run.log" "starting stream\|refused: the last stop" $((starts + 1)) 10 ||
     fail "the second stream got no answer"
   if grep "starting stream\|refused: the last stop" "$tmp/run.log" | tail -1 | grep -q refused; then
     kill -KILL "$streamer"
@@ -100,7 +100,7 @@ for ((try = 1; try <= 5 && shown == 0; ++try)); do
     continue
   fi
   sleep 0.5  # the stream flows
-  early=$(count "$tmp/run.log" "stream STOPPED\|stream done")
+  early=$(lines_matching "$tmp/run.log" "stream STOPPED\|stream done")
   kill -KILL "$streamer"
   wait "$streamer" 2>/dev/null
   streamer=
@@ -110,7 +110,7 @@ for ((try = 1; try <= 5 && shown == 0; ++try)); do
     echo "NOTE: try $try: the guest's timing stopped the stream before the streamer was killed"
     continue
   fi
-  wait_for_count "$tmp/run.log" "stream STOPPED\|stream done" $((stops + 1)) 20 ||
+  wait_for_lines "$tmp/run.log" "stream STOPPED\|stream done" $((stops + 1)) 20 ||
     fail "killing the streamer did not stop the run"
   if grep "stream STOPPED" "$tmp/run.log" | tail -1 | grep -q "command stream stale"; then
     faults_since "$f0" | grep '"event":"fault"' | grep '"cause":"command stream stale"' |
@@ -127,4 +127,4 @@ done
 # 3. After that stop only a signed reset re-enables starts.
 "$dualv" stream --key "$key" --lcm "$url" --circle 0.01 --duration 0.5 >/dev/null 2>&1
 wait_for "$tmp/run.log" "refused: the last stop has not been reset" 10 || fail "a stream started without a reset"
-echo "PASS: killed streamer -> SS1 (command stream stale); reset needed; complete stream: $([[ $(count "$tmp/run.log" "stream done") -gt 0 ]] && echo shown || echo "NOTE above")"
+echo "PASS: killed streamer -> SS1 (command stream stale); reset needed; complete stream: $([[ $(lines_matching "$tmp/run.log" "stream done") -gt 0 ]] && echo shown || echo "NOTE above")"
