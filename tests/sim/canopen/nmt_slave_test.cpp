@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/sim/canopen/frame_text.hpp"
+
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -13,21 +15,8 @@
 namespace dualv::sim::canopen {
 namespace {
 
-std::string text(const fw::CanFrame& f) {
-  char b[8];
-  std::snprintf(b, sizeof b, "%03X#", f.id);
-  std::string s = b;
-  for (int i = 0; i < f.dlc; ++i) {
-    std::snprintf(b, sizeof b, "%02X", f.data[static_cast<std::size_t>(i)]);
-    s += b;
-  }
-  return s;
-}
-
-struct Recorder final : FrameSink {
-  std::vector<std::string> frames;
-  void send(const fw::CanFrame& f) noexcept override { frames.push_back(text(f)); }
-};
+using Recorder = test::FrameRecorder;
+using test::text;
 
 constexpr std::uint64_t kMs = 1'000'000;
 

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/sim/canopen/frame_text.hpp"
+
 #include <string>
 #include <vector>
 
@@ -23,17 +25,7 @@ fw::CanFrame parse(const std::string& text) {
     f.data[i] = static_cast<std::uint8_t>(std::stoul(data.substr(2 * i, 2), nullptr, 16));
   return f;
 }
-std::string text(const fw::CanFrame& f) {
-  char b[40];
-  std::string s;
-  std::snprintf(b, sizeof b, "%03X#", f.id);
-  s = b;
-  for (int i = 0; i < f.dlc; ++i) {
-    std::snprintf(b, sizeof b, "%02X", f.data[static_cast<std::size_t>(i)]);
-    s += b;
-  }
-  return s;
-}
+using test::text;
 
 struct Recorder final : SdoServerHooks {
   ObjectDictionary* od = nullptr;
