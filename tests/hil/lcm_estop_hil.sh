@@ -15,11 +15,16 @@
 # arrive. Case 1 does not depend on that timing and always gates (up to five attempts, as its
 # first e-stop may come after a run's first cycles). Case 2 is tried up to three times; if every attempt ends on guest timing first, the test says so in a NOTE (the
 # property was not shown here) and passes on case 1 alone; any other outcome fails.
-# Usage: lcm_estop_hil.sh DUALV_BINARY CONFIG_YAML
+# Each case is its own ctest: hil_lcm_estop (case 1) and hil_lcm_estop_running (case 2; in
+# tests/hil/KNOWN_FAILING: in the guest the e-stop sent while the program runs is not received
+# at all, see there).
+# Usage: lcm_estop_hil.sh DUALV_BINARY CONFIG_YAML prepared|running
 set -u
 . "$(dirname "$0")/hil_lib.sh"
 dualv=${1:?usage: lcm_estop_hil.sh DUALV_BINARY CONFIG_YAML}
-config=${2:?usage: lcm_estop_hil.sh DUALV_BINARY CONFIG_YAML}
+config=${2:?usage: lcm_estop_hil.sh DUALV_BINARY CONFIG_YAML prepared|running}
+case_name=${3:?usage: lcm_estop_hil.sh DUALV_BINARY CONFIG_YAML prepared|running}
+[[ $case_name == prepared || $case_name == running ]] || { echo "unknown case $case_name"; exit 2; }
 skip_outside_lcm_guest
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/dualv-estop-hil.XXXXXX") || exit 1
 spammer=""
@@ -47,6 +52,7 @@ check_stopped_by_estop() {
 }
 
 # --- 1. e-stop while the program is prepared ------------------------------------------------
+if [[ $case_name == prepared ]]; then
 prepared_ok=0
 for ((attempt = 1; attempt <= 5; ++attempt)); do
   # E-stops every 10 ms (1 s per `dualv estop`) until the run has ended; the last one is
@@ -82,6 +88,8 @@ for ((attempt = 1; attempt <= 5; ++attempt)); do
   fi
 done
 [[ $prepared_ok -eq 1 ]] || fail "no e-stop reached the run in 5 attempts (each stopped on timing)"
+exit 0
+fi
 
 # --- 2. e-stop while the program runs -------------------------------------------------------
 for ((attempt = 1; attempt <= 3; ++attempt)); do
@@ -95,10 +103,12 @@ for ((attempt = 1; attempt <= 3; ++attempt)); do
     echo "PASS: LCM e-stop while running -> SS1 -> STO (attempt $attempt)"
     exit 0
   fi
+  grep -q "command accepted: e-stop" "$tmp/run.log" ||
+    grep -q "$timing_stop" "$tmp/run.log" || fail "the e-stop sent while the run ran was never received"
   grep -q "$timing_stop" "$tmp/run.log" || fail "the run was not stopped by the e-stop"
   echo "NOTE: attempt $attempt: the run stopped on guest timing before the e-stop arrived:"
   grep "safety stop" "$tmp/run.log" | head -1
 done
 echo "NOTE: e-stop while running not shown in this guest: every attempt stopped on its own timing"
-echo "      watchdog first (the guest cannot hold 1 kHz here); case 1 passed"
-exit 0
+echo "      watchdog first (the guest cannot hold 1 kHz here)"
+exit 77
