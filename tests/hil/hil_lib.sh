@@ -36,14 +36,15 @@ wait_for_lines() {
 }
 
 # serve_reset DUALV KEY URL LOG: a signed `dualv reset` to a `dualv run --serve` logging to LOG.
-# Waits until the service logged the reset's receipt, then (up to 5 s) for the loop's answer,
-# which comes only when a stop was latched ("reset accepted" / "reset refused"). 1 if the
-# receipt never came.
+# Waits until the service logged the reset's receipt and, when a stop is latched (more "torque
+# off" lines than answers to resets), for the loop's answer ("reset accepted" / "reset
+# refused"); with nothing latched the loop gives none. 1 if the receipt or the answer never came.
 serve_reset() {
-  local got answers
+  local got answers latched
   got=$(lines_matching "$4" "reset (key ")
   answers=$(lines_matching "$4" "reset accepted\|reset refused")
+  latched=$(($(lines_matching "$4" "torque off (STO)") > answers))
   "$1" reset --key "$2" --lcm "$3" >/dev/null || return 1
   wait_for_lines "$4" "reset (key " $((got + 1)) 20 || return 1
-  wait_for_lines "$4" "reset accepted\|reset refused" $((answers + 1)) 5 || true
+  [[ $latched -eq 0 ]] || wait_for_lines "$4" "reset accepted\|reset refused" $((answers + 1)) 20
 }
