@@ -48,3 +48,10 @@ serve_reset() {
   wait_for_lines "$4" "reset (key " $((got + 1)) 20 || return 1
   [[ $latched -eq 0 ]] || wait_for_lines "$4" "reset accepted\|reset refused" $((answers + 1)) 20
 }
+
+# timing_stops: 0 when the fault-log lines on stdin (faults.jsonl) hold a stop by one of the
+# loop's own timing watchdogs (safety/fault.hpp: consecutive deadline misses, stale feedback;
+# both STO), the stops a slow guest causes whatever the test does.
+timing_stops() {
+  grep '"event":"fault"' | grep -qE '"cause":"(consecutive deadline misses|stale feedback)","reaction":"STO"'
+}

@@ -38,8 +38,6 @@ wait_for "$tmp/run.log" "serving: waiting" 20 || fail "no service"
 "$dualv" start "$program" --key "$tmp/other/intruder.key" --lcm "$url" >/dev/null
 wait_for "$tmp/run.log" "refused (unknown key)" 10 || fail "a start with an unknown key was not refused"
 grep -q "starting " "$tmp/run.log" && fail "a start with an unknown key ran"
-# The stop causes of the loop's own timing watchdogs (safety/fault.hpp), in the fault log.
-timing_sto='"cause":"\(consecutive deadline misses\|stale feedback\)","reaction":"STO"'
 reset_timing_stop() {  # a stop the guest's timing latched is reset (a reset of nothing is harmless)
   serve_reset "$dualv" "$tmp/keys/lab1.key" "$url" "$tmp/run.log" || fail "a signed reset was not received"
 }
@@ -52,7 +50,7 @@ for ((attempt = 1; attempt <= 3 && ran == 0; ++attempt)); do
     $((ends + 1)) 60 || fail "the signed start got no answer"
   if grep -q "paper.yaml done" "$tmp/run.log"; then
     ran=1
-  elif grep -q "$timing_sto" "$tmp/out/faults.jsonl"; then
+  elif timing_stops <"$tmp/out/faults.jsonl"; then
     echo "NOTE: attempt $attempt: the guest's timing stopped the loop (the start was answered):"
     grep "paper.yaml STOPPED\|refused: the last stop" "$tmp/run.log" | tail -1
   else

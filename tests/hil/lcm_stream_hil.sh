@@ -45,10 +45,6 @@ fail() {
 # The fault log's lines after the first $1.
 faults_since() { tail -n +"$(($1 + 1))" "$tmp/out/faults.jsonl" 2>/dev/null; }
 faults_now() { lines_matching "$tmp/out/faults.jsonl" .; }
-# A stop by one of the loop's own timing watchdogs (safety/fault.hpp causes) among those lines.
-timing_stop_in() {
-  grep '"event":"fault"' | grep -qE '"cause":"(consecutive deadline misses|stale feedback)","reaction":"(SS1|STO)"'
-}
 # A signed reset before a try: clears a stop the guest's timing latched (harmless otherwise).
 reset() { serve_reset "$dualv" "$key" "$url" "$tmp/run.log" || fail "a signed reset was not received"; }
 wait_for "$tmp/run.log" "serving: waiting" 20 || fail "no service"
@@ -75,7 +71,7 @@ for ((try = 1; try <= 3 && shown == 0; ++try)); do
     followed=$(sed -nE 's/.*stream done; setpoints: ([0-9]+) followed.*/\1/p' <<<"$last")
     [[ -n "$followed" && "$followed" -gt 50 ]] || fail "too few setpoints followed: '$followed'"
     shown=1
-  elif faults_since "$f0" | timing_stop_in || [[ $last == *"command stream stale"* ]]; then
+  elif faults_since "$f0" | timing_stops || [[ $last == *"command stream stale"* ]]; then
     echo "NOTE: try $try: the guest's timing stopped the stream: $last"
   else
     fail "the complete stream ended otherwise: $last"
@@ -99,7 +95,7 @@ for ((try = 1; try <= 8 && shown == 0; ++try)); do
     kill -KILL "$streamer"
     wait "$streamer" 2>/dev/null
     streamer=
-    faults_since "$f0" | timing_stop_in || fail "the second stream was refused without a stop"
+    faults_since "$f0" | timing_stops || fail "the second stream was refused without a stop"
     echo "NOTE: try $try: a timing watchdog latched a stop again after the reset: stream refused"
     continue
   fi
@@ -109,7 +105,7 @@ for ((try = 1; try <= 8 && shown == 0; ++try)); do
   wait "$streamer" 2>/dev/null
   streamer=
   if [[ $early -gt $stops ]]; then
-    faults_since "$f0" | timing_stop_in || grep "stream STOPPED" "$tmp/run.log" | tail -1 |
+    faults_since "$f0" | timing_stops || grep "stream STOPPED" "$tmp/run.log" | tail -1 |
       grep -q "command stream stale" || fail "the stream stopped while it was still sent"
     echo "NOTE: try $try: the guest's timing stopped the stream before the streamer was killed"
     continue
@@ -120,7 +116,7 @@ for ((try = 1; try <= 8 && shown == 0; ++try)); do
     faults_since "$f0" | grep '"event":"fault"' | grep '"cause":"command stream stale"' |
       grep -q '"reaction":"SS1"' || fail "no SS1 'command stream stale' in the fault log"
     shown=1
-  elif faults_since "$f0" | timing_stop_in; then
+  elif faults_since "$f0" | timing_stops; then
     echo "NOTE: try $try: a timing watchdog stopped the loop before the stream went stale"
   else
     fail "the stop's cause is not 'command stream stale'"
