@@ -77,7 +77,6 @@ constexpr const char* kStreamProgram = "stream";
 int serve(const RobotConfig& cfg, Machine& machine, runtime::CommandChannel& commands,
           runtime::ServiceNotifier& service) {
   control::Executor& loop = machine.executor();
-  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // a service's log: one line at a time
   fmt::print("dualv run: serving: waiting for `dualv start PROGRAM` (Ctrl-C to end)\n");
   service.ready("waiting for start");
   // What the loop follows now, for its messages: file name and start key.

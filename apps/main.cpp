@@ -2,6 +2,7 @@
 #include <fmt/core.h>
 
 #include <CLI/CLI.hpp>
+#include <cstdio>
 #include <exception>
 
 #include "apps/commands.hpp"
@@ -15,6 +16,10 @@ int& exit_code() noexcept {
 }  // namespace dualv::apps
 
 int main(int argc, char** argv) {
+  // A log file, a pipe or the journal gets each line when it is written (stdout is otherwise
+  // block-buffered there): progress, e-stops and stops are seen while they happen, and a
+  // script watching the log acts on the run as it is, not on what a 4 KiB buffer held back.
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
   CLI::App app{"dualv: real-time control of the Dual-V redundantly actuated parallel robot"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "dualv 0.1.0");

@@ -257,4 +257,35 @@ TEST_F(RunCli, HelpNamesTheDefaultFilesARunUses) {
             dualv::runtime::ReplayStateStatus::kLoaded);
 }
 
+// A one-shot run's output reaches its log line by line, while the run goes on (stdout into a
+// file, a pipe or the journal is block-buffered unless the binary says otherwise: a script or an
+// operator watching the log saw the run's lines only at its exit, and acted on a run already
+// over; hil_lcm_estop_running sent its e-stop after the program had ended). The run is held
+// without any timing: LCM's file provider opens the command FIFO for reading, which blocks until
+// a writer opens it. The lines written before that must be in the log while it waits.
+TEST_F(RunCli, OneShotRunWritesItsLogLineByLineWhileItRuns) {
+  const fs::path fifo = dir_ / "held.fifo";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  DualvProcess run(
+      kDualv,
+      {"run", "-c", config_.string(), "-p", (dir_ / "prog.yaml").string(), "--commands",
+       "file://" + fifo.string() + "?speed=0", "--keys", (dir_ / "keys").string(), "--replay-state",
+       (dir_ / "replay.state").string(), "--no-plots", "--out", (dir_ / "out").string()},
+      dir_ / "held.log", DualvProcess::Env{{}, {"NOTIFY_SOCKET", "WATCHDOG"}});
+  ASSERT_TRUE(run.started());
+  // Blocked in open(): it cannot end before the FIFO has a writer, so a line seen now was
+  // written to the log while the process ran.
+  const bool seen = run.wait_for_text("listening for operator commands", 60s);
+  {
+    // Frees the open; an event nobody reads (LCM's log reader wants a first one), then EOF.
+    lcm::LCM writer("file://" + fifo.string() + "?mode=w");
+    EXPECT_TRUE(writer.good());
+    const std::uint8_t filler = 0;
+    EXPECT_EQ(writer.publish("DUALV_TEST_FILLER", &filler, 1u), 0);
+  }
+  EXPECT_TRUE(seen) << "the run's first lines were not in its log while it ran:\n" << run.output();
+  EXPECT_EQ(run.wait(120s), 0) << run.output();
+  EXPECT_NE(run.output().find("prog.yaml"), std::string::npos) << run.output();
+}
+
 }  // namespace
