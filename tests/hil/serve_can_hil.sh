@@ -200,10 +200,15 @@ timing_only() {  # timing_only FIRST_LINE: 0 when every stopping fault from that
 }
 faults_lines() { [[ -f "$tmp/out/faults.jsonl" ]] && wc -l <"$tmp/out/faults.jsonl" || echo 0; }
 last_reset_f=1  # the first line of faults.jsonl after the test's last signed reset
+resets_before=0  # "reset accepted" lines in the log before the test's last signed reset
 signed_reset() {
   last_reset_f=$(($(faults_lines) + 1))
+  resets_before=$(count "reset accepted")
   signed reset
 }
+# reset_accepted: 0 once the service accepted the last signed reset. Counted from before it was
+# sent: the service may accept it before `dualv reset` has returned.
+reset_accepted() { wait_count "reset accepted" $((resets_before + 1)) 20; }
 retries=0
 not_shown=''  # steps whose every attempt a timing watchdog stopped (NOTE, see above)
 idle_resets=0
@@ -228,7 +233,7 @@ run_paper() {
       fi
       echo "note: $1: the start was refused after a timing-watchdog stop while idle (attempt $attempt)"
       signed_reset
-      wait_count "reset accepted" "$(($(count "reset accepted") + 1))" 20 || fail "$1: reset after a timing stop"
+      reset_accepted || fail "$1: reset after a timing stop"
       continue
     fi
     [[ $w -lt 600 ]] || fail "$1: the signed start of $pname did not end in 120 s"
@@ -237,7 +242,7 @@ run_paper() {
     ((++retries))
     echo "note: $1: $pname stopped by a timing watchdog in the guest (attempt $attempt): $(grep "$pname STOPPED" "$tmp/run.log" | tail -n 1)"
     signed_reset
-    wait_count "reset accepted" "$(($(count "reset accepted") + 1))" 20 || fail "$1: reset after a timing stop"
+    reset_accepted || fail "$1: reset after a timing stop"
   done
   echo "NOTE (guest timing): $1: all 3 attempts of $pname stopped by timing watchdogs in the" \
     "guest; its completion is not shown here, its stops are checked on the wire"
@@ -297,7 +302,7 @@ else
     "$(grep "stream STOPPED" "$tmp/run.log" | tail -n 1)"
   not_shown+=" step 3"
   signed_reset
-  wait_count "reset accepted" "$(($(count "reset accepted") + 1))" 20 || fail "step 3: reset"
+  reset_accepted || fail "step 3: reset"
 fi
 
 # 4. An e-stop while a start is being prepared: that program never starts.
@@ -333,7 +338,7 @@ for attempt in 1 2 3; do
   ((++retries))
   echo "note: step 5: stopped by a timing watchdog before the e-stop (attempt $attempt)"
   signed_reset
-  wait_count "reset accepted" "$(($(count "reset accepted") + 1))" 20 || fail "step 5: reset"
+  reset_accepted || fail "step 5: reset"
   if [[ $attempt -eq 3 ]]; then
     echo "NOTE (guest timing): step 5: no run reached the e-stop in 3 attempts (each stopped by a" \
       "timing watchdog first; their stops are checked on the wire)"
