@@ -5,6 +5,7 @@ set -euo pipefail
 
 PKGS=(
   build-essential cmake pkg-config clang-format
+  ccache   # scripts/test.sh: the package build reuses the release build's objects
   clang libclang-rt-dev   # the libFuzzer targets (fuzz/, scripts/fuzz.sh): clang + libFuzzer runtime
   libeigen3-dev
   liblcm-dev liblcm-bin libglib2.0-dev

@@ -11,7 +11,7 @@
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-build=${DUALV_PACKAGE_BUILD:-$root/build-package}
+build=${DUALV_PACKAGE_BUILD:-$root/build/package}
 jobs=${JOBS:-2}
 keep=0
 while [[ $# -gt 0 ]]; do
@@ -40,9 +40,17 @@ step() {
   fi
 }
 
+# The flags of the tested release build (scripts/test.sh: RelWithDebInfo, -Werror): what is
+# installed is what the tests ran, stripped by cpack (packaging/CMakeLists.txt). With ccache,
+# every object but the few that bake in /etc/dualv comes from the release build's cache
+# (build/release and build/package are at the same depth: the same relative paths).
+launcher=()
+command -v ccache >/dev/null &&
+  launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
 step "configuring $build for the target (/usr, /etc/dualv)" \
-  cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DCMAKE_INSTALL_PREFIX=/usr \
-  -DDUALV_CONFIG_DIR=/etc/dualv -DDUALV_BUILD_TESTS=OFF -DDUALV_BUILD_BENCH=OFF
+  cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDUALV_WERROR=ON \
+  -DCMAKE_INSTALL_PREFIX=/usr -DDUALV_CONFIG_DIR=/etc/dualv -DDUALV_BUILD_TESTS=OFF \
+  -DDUALV_BUILD_BENCH=OFF "${launcher[@]}"
 step "building" cmake --build "$build" -j "$jobs"
 rm -f "$build"/dualv_*.deb
 step "packaging (cpack -G DEB)" bash -c "cd '$build' && cpack -G DEB"

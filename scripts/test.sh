@@ -49,8 +49,18 @@ bash scripts/install-deps.sh
 phase "layers (scripts/check-layers.sh)"
 bash scripts/check-layers.sh
 
+# ccache (scripts/install-deps.sh): the package build (scripts/package-test.sh, build/package)
+# compiles with the release build's flags, so all but the objects that bake in its install
+# paths come from the cache. Paths are hashed relative to the checkout, the working directory
+# not at all: build/release and build/package then share entries.
+launcher=()
+if command -v ccache >/dev/null; then
+  export CCACHE_BASEDIR=$PWD CCACHE_NOHASHDIR=1
+  launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+fi
+
 phase "release build (-Werror)"
-cmake -S . -B build/release -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDUALV_WERROR=ON >/dev/null
+cmake -S . -B build/release -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDUALV_WERROR=ON "${launcher[@]}" >/dev/null
 cmake --build build/release -j"$jobs"
 phase "tests (release)"
 ctest --test-dir build/release --output-on-failure -j"$jobs" --timeout 900 -LE hil
