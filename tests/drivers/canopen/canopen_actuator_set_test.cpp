@@ -31,7 +31,7 @@ struct SetFixture : ::testing::Test {
       (void)slaves.back()->nmt.on_command(
           fw::NmtCommand::kStart);  // booted (boot_test covers boot)
       slaves.back()->slot = static_cast<std::uint8_t>(i);
-      slaves.back()->broadcast = layout == fw::BusLayout::kBroadcast;
+      slaves.back()->configure_pdos(config, i);  // the PDOs as the master's boot writes them
       slaves.back()->position = 10000 * (i + 1);
     }
     set = std::make_unique<CanopenActuatorSet>(hub.endpoint(0), clock, config);
@@ -238,14 +238,15 @@ TEST(CanopenActuatorSetCycleClock, ACycleReadsNoClockAndJudgesTimeoutsAtItsWakeU
   } base;
   canopen::CycleClock clock(base);
   InProcessHub hub(5, 1024);
+  const CanConfig config = default_can_config();
   std::vector<std::unique_ptr<FakeSlave>> slaves;
   for (int i = 0; i < 4; ++i) {
     slaves.push_back(std::make_unique<FakeSlave>(hub.endpoint(static_cast<std::size_t>(i) + 1),
                                                  static_cast<std::uint8_t>(i + 1)));
     (void)slaves.back()->nmt.on_command(fw::NmtCommand::kStart);  // booted
     slaves.back()->slot = static_cast<std::uint8_t>(i);
+    slaves.back()->configure_pdos(config, i);  // the PDOs as the master's boot writes them
   }
-  const CanConfig config = default_can_config();
   CanopenActuatorSet set(hub.endpoint(0), clock, config);
   ActuatorFeedback fb;
   ActuatorCommand cmd;

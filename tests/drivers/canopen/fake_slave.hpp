@@ -18,11 +18,13 @@
 #include <cstdint>
 #include <map>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "drivers/can/in_process_bus.hpp"
+#include "drivers/canopen/boot.hpp"
 #include "drivers/canopen/clock.hpp"
 #include "drivers/canopen/waiter.hpp"
 #include "firmware_if/firmware_if.hpp"
@@ -45,8 +47,10 @@ inline std::vector<std::uint8_t> le_bytes(std::uint32_t v, std::size_t n) {
 
 class FakeSlave {
  public:
-  FakeSlave(CanBus& bus, std::uint8_t node) : bus_(bus), node_(node), sink_(*this), hooks_(*this) {
+  FakeSlave(CanBus& bus, std::uint8_t node)
+      : bus_(bus), node_(node), sink_(*this), hooks_(*this), pdo_hooks_(*this) {
     add_objects();
+    pdos_.rebuild(dict_);
     emcy_.attach(node, dict_.find(fw::od::kErrorRegister));
     nmt.attach(node, dict_.find(fw::od::kProducerHeartbeat));
     server_.configure(node, {});
@@ -127,30 +131,37 @@ class FakeSlave {
   }
   std::uint16_t statusword() const { return cia402_.statusword(); }
   std::uint8_t error_register() const { return emcy_.error_register(); }
-  // TPDO2 as the master maps it (60FDh digital inputs, 4 bytes on 280h + id).
+  // The digital inputs 60FDh change to `di`, and the event-driven TPDO2 (as the master maps
+  // it: 60FDh, 4 bytes on 280h + id) goes out at once, as a drive sends one on the event
+  // (scripted: the PdoEngine sends event-driven TPDOs at a SYNC or on their timers only; at
+  // the next SYNC it sends the changed 60FDh again).
   void send_digital_inputs(std::uint32_t di) {
+    dict_.set(dict_.find(fw::od::kDigitalInputs), di);
     fw::CanFrame f;
     f.id = fw::cob_id(fw::Function::kTpdo2, node_);
     f.dlc = 4;
     fw::put_u32_le(f.data.data(), di);
     (void)bus_.send(f);
   }
-  // Per-drive: TPDO1 = statusword + position. Broadcast layout (`broadcast`): TPDO1 =
-  // position, and TPDO3 = statusword when it changed since the last one (no inhibit time:
-  // the emulator models that).
+  // Scripted: the TPDOs the engine sent at the last SYNC, once more (a duplicate).
   void send_tpdo() {
-    if (!broadcast) {
-      send(fw::encode_tpdo1(node_, {statusword(), position}));
-      return;
-    }
-    send(fw::encode_position_tpdo(node_, position));
-    if (!statusword_sent_ || statusword() != last_statusword_) {
-      send(fw::encode_statusword_tpdo(node_, statusword()));
-      statusword_sent_ = true;
-      last_statusword_ = statusword();
+    for (const fw::CanFrame& f : last_tpdos_) (void)bus_.send(f);
+  }
+  // The PDO configuration the master writes at boot for drive `drive` of `config`
+  // (drivers/canopen/boot.hpp boot_writes: the 1400h../1600h../1800h../1A00h.. writes, in
+  // order), through the same checks as an SDO download (PdoEngine::check_write), for tests
+  // that skip the boot. Throws std::runtime_error naming the entry when one is refused.
+  void configure_pdos(const CanConfig& config, int drive) {
+    for (const canopen::ConfigWrite& w : canopen::boot_writes(config, drive)) {
+      if (!sim::canopen::PdoEngine::is_parameter(w.entry.index)) continue;
+      const int s = dict_.find(w.entry);
+      const std::uint32_t abort = s < 0 ? 0x06020000u : hooks_.download(s, w.value);
+      if (abort != 0)
+        throw std::runtime_error("FakeSlave::configure_pdos: node " + std::to_string(node_) +
+                                 " refused " + std::to_string(w.entry.index) + " sub " +
+                                 std::to_string(w.entry.subindex) + " (" + w.why + ")");
     }
   }
-  bool broadcast = false;
   // The drive faults on its own (e.g. over-temperature): EMCY + Fault.
   // The EMCY carries the error register of the code's class (4210h: generic + temperature);
   // a fault reset sends EMCY 0000h (sim::canopen::EmcyProducer).
@@ -205,7 +216,11 @@ class FakeSlave {
         if (!nmt.pdo_allowed()) return;
         ++syncs;
         if (cia == fw::Cia402State::kOperationEnabled) applied_torques.push_back(target_torque);
-        if (answers_sync) send_tpdo();
+        // The synchronous TPDOs sampled from the dictionary (CiA 301 7.3.2); answers_sync
+        // = false drops them (the scripted layer).
+        last_tpdos_.clear();
+        refresh();
+        pdos_.transmit_at_sync(dict_, pdo_hooks_, f.timestamp_ns);
         return;
       case fw::Function::kRpdo1:
         if (info->node != node_ || !nmt.pdo_allowed()) return;
@@ -403,8 +418,13 @@ class FakeSlave {
   struct Hooks final : sim::canopen::SdoServerHooks {
     explicit Hooks(FakeSlave& s) : slave(s) {}
     std::uint32_t download(int slot, std::uint32_t value) noexcept override {
+      const fw::OdEntry& e = slave.dict_.entry(slot);
+      // PDO records: CiA 301 7.5.2.35..38 (valid COB-ID, mapping only while invalid, ...).
+      if (const std::uint32_t abort = slave.pdos_.check_write(slave.dict_, e, value); abort != 0)
+        return abort;
       if (slave.ignores_writes) return 0;
       slave.dict_.set(slot, value);
+      if (sim::canopen::PdoEngine::is_parameter(e.index)) slave.pdos_.rebuild(slave.dict_);
       if (slot == slave.dict_.find(fw::od::kProducerHeartbeat))
         slave.nmt.producer_time_written(slave.dict_, slave.now_ns_);
       return 0;
@@ -412,6 +432,23 @@ class FakeSlave {
     void before_upload(int) noexcept override {}
     FakeSlave& slave;
   };
+  // Behind the PdoEngine: TPDOs out (unless answers_sync is false), values to sample.
+  struct PdoAdapter final : sim::canopen::PdoHooks {
+    explicit PdoAdapter(FakeSlave& s) : slave(s) {}
+    void transmit(const fw::CanFrame& f) noexcept override {
+      if (!slave.answers_sync) return;
+      (void)slave.bus_.send(f);
+      slave.last_tpdos_.push_back(f);
+    }
+    void written(int, std::uint64_t) noexcept override {}
+    void before_sample() noexcept override { slave.refresh(); }
+    FakeSlave& slave;
+  };
+  // The application's values into the dictionary before the engine samples them.
+  void refresh() {
+    dict_.set(dict_.find(fw::od::kStatusword), statusword());
+    dict_.set(dict_.find(fw::od::kPositionActual), static_cast<std::uint32_t>(position));
+  }
   struct Discard final : sim::canopen::FrameSink {
     void send(const fw::CanFrame&) noexcept override {}
   };
@@ -429,7 +466,10 @@ class FakeSlave {
   Hooks hooks_;
   sim::canopen::ObjectDictionary dict_;  // 1001h owned by emcy_, 1017h read by nmt
   sim::canopen::SdoServer server_;
-  bool scripted_transfer_ = false;  // the SDO transfer under way is the scripted layer's
+  sim::canopen::PdoEngine pdos_;  // mapped from dict_ (1400h..1A03h as the master writes them)
+  PdoAdapter pdo_hooks_;
+  std::vector<fw::CanFrame> last_tpdos_;  // sent at the last SYNC (send_tpdo)
+  bool scripted_transfer_ = false;        // the SDO transfer under way is the scripted layer's
   sim::canopen::EmcyProducer emcy_;
   std::uint64_t now_ns_ = 0;  // the last tick()
   Key seg_key_{};
