@@ -198,6 +198,7 @@ class FakeSlave {
           return;
         }
         const sim::canopen::NmtChange change = nmt.on_command(m->command);
+        if (!nmt.pdo_allowed()) pdos_.stop();  // PDOs exist in Operational only
         if (change.reset_application || change.reset_communication) {
           cia402_.power_on();
           cia = cia402_.state();
@@ -221,18 +222,12 @@ class FakeSlave {
         last_tpdos_.clear();
         refresh();
         pdos_.transmit_at_sync(dict_, pdo_hooks_, f.timestamp_ns);
+        // Then the synchronous RPDOs received since the previous SYNC take effect (CiA 301
+        // 7.3.2), as in the emulator.
+        pdos_.latch_at_sync(dict_, pdo_hooks_, f.timestamp_ns);
         return;
       case fw::Function::kRpdo1:
-        if (info->node != node_ || !nmt.pdo_allowed()) return;
-        if (f.dlc == 4) {
-          const auto c = fw::decode_rpdo1(f);
-          if (c) {
-            target_torque = c->target_torque;
-            on_controlword(c->controlword);
-          }
-        } else if (const auto cw = fw::decode_controlword_rpdo(f)) {
-          on_controlword(*cw);
-        }
+        on_rpdo(f);
         return;
       case fw::Function::kBroadcastRpdo: {
         if (!nmt.pdo_allowed()) return;
@@ -254,6 +249,16 @@ class FakeSlave {
  private:
   bool statusword_sent_ = false;
   std::uint16_t last_statusword_ = 0;
+  // An RPDO through the engine: written into the dictionary (at once, or at the next SYNC
+  // for the synchronous types), acted on in PdoAdapter::written. One shorter than its
+  // mapping is not processed: EMCY 8210h until a correct one (CiA 301 7.2.2.2).
+  void on_rpdo(const fw::CanFrame& f) {
+    const sim::canopen::RpdoReceipt r =
+        pdos_.on_rpdo(f, nmt.pdo_allowed(), dict_, pdo_hooks_, f.timestamp_ns);
+    if (r.too_short && !emcy_.active(kPdoLengthCondition))
+      emcy_.raise(dict_, kPdoLengthCondition, fw::emcy::kPdoLengthError, true, sink_);
+    if (r.accepted) emcy_.clear(dict_, kPdoLengthCondition, true, sink_);
+  }
   void on_controlword(std::uint16_t cw) {
     controlword = cw;
     controlwords.push_back(cw);
@@ -440,7 +445,13 @@ class FakeSlave {
       (void)slave.bus_.send(f);
       slave.last_tpdos_.push_back(f);
     }
-    void written(int, std::uint64_t) noexcept override {}
+    // A mapped object written by an RPDO: the controlword acts, the target torque is taken.
+    void written(int slot, std::uint64_t) noexcept override {
+      if (slot == slave.dict_.find(fw::od::kControlword))
+        slave.on_controlword(static_cast<std::uint16_t>(slave.dict_.u(slot)));
+      else if (slot == slave.dict_.find(fw::od::kTargetTorque))
+        slave.target_torque = static_cast<std::int16_t>(slave.dict_.u(slot));
+    }
     void before_sample() noexcept override { slave.refresh(); }
     FakeSlave& slave;
   };
@@ -458,6 +469,7 @@ class FakeSlave {
     FakeSlave& slave;
   };
   static constexpr int kFaultCondition = 0;
+  static constexpr int kPdoLengthCondition = 1;  // 8210h: an RPDO shorter than its mapping
 
   CanBus& bus_;
   std::uint8_t node_;
