@@ -29,8 +29,7 @@ struct SetFixture : ::testing::Test {
       slaves.push_back(std::make_unique<FakeSlave>(hub.endpoint(static_cast<std::size_t>(i) + 1),
                                                    static_cast<std::uint8_t>(i + 1)));
       (void)slaves.back()->nmt.on_command(
-          fw::NmtCommand::kStart);  // booted (boot_test covers boot)
-      slaves.back()->slot = static_cast<std::uint8_t>(i);
+          fw::NmtCommand::kStart);               // booted (boot_test covers boot)
       slaves.back()->configure_pdos(config, i);  // the PDOs as the master's boot writes them
       slaves.back()->position = 10000 * (i + 1);
     }
@@ -250,7 +249,6 @@ TEST(CanopenActuatorSetCycleClock, ACycleReadsNoClockAndJudgesTimeoutsAtItsWakeU
     slaves.push_back(std::make_unique<FakeSlave>(hub.endpoint(static_cast<std::size_t>(i) + 1),
                                                  static_cast<std::uint8_t>(i + 1)));
     (void)slaves.back()->nmt.on_command(fw::NmtCommand::kStart);  // booted
-    slaves.back()->slot = static_cast<std::uint8_t>(i);
     slaves.back()->configure_pdos(config, i);  // the PDOs as the master's boot writes them
   }
   CanopenActuatorSet set(hub.endpoint(0), clock, config);

@@ -229,12 +229,9 @@ class FakeSlave {
       case fw::Function::kRpdo1:
         on_rpdo(f);
         return;
-      case fw::Function::kBroadcastRpdo: {
-        if (!nmt.pdo_allowed()) return;
-        const auto t = fw::decode_broadcast_torque(f, slot);
-        if (t) target_torque = *t;
+      case fw::Function::kBroadcastRpdo:  // 200h: RPDO2 of the broadcast and fd layouts
+        on_rpdo(f);
         return;
-      }
       case fw::Function::kSdoRx:
         if (info->node == node_ && answers_sdo && nmt.sdo_allowed()) sdo(f);
         return;
@@ -242,9 +239,6 @@ class FakeSlave {
         return;
     }
   }
-
- public:
-  std::uint8_t slot = 0;  // broadcast layout: this drive's slot
 
  private:
   bool statusword_sent_ = false;
