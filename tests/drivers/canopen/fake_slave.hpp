@@ -1,20 +1,28 @@
 #pragma once
 // A small scripted CANopen CiA 402 slave for the master's unit tests (not the emulator):
-// answers NMT, SDO (expedited and segmented), SYNC (TPDO1) and takes RPDOs. Where it models
+// answers NMT, SDO (expedited and segmented), SYNC (its TPDOs) and takes RPDOs. Where it models
 // a conforming slave it is made of the emulator's slave parts (sim/canopen/, library
 // dualv_canopen_slave):
 // - NMT states, boot-up message, heartbeat producer (1017h): sim::canopen::NmtSlave;
 // - the object dictionary (the emulator's objects incl. the PDO records of
 //   PdoEngine::add_objects): sim::canopen::ObjectDictionary, served by sim::canopen::SdoServer;
+// - PDOs: sim::canopen::PdoEngine, mapped from that dictionary (1400h..1403h, 1600h..1603h,
+//   1800h..1803h, 1A00h..1A03h as the master writes them at boot, downloads checked by
+//   PdoEngine::check_write; tests that skip the boot write the same records with
+//   configure_pdos). At a SYNC the TPDOs are sampled first, then the synchronous RPDOs
+//   received since the previous SYNC act (CiA 301 7.3.2): a controlword of RPDO1 (type 1) shows
+//   in the statusword of the TPDO after the next SYNC. An RPDO shorter than its mapping is not
+//   processed: EMCY 8210h until a correct one;
 // - CiA 402 state machine and statusword: sim::canopen::Cia402Slave;
 // - a fault's EMCY and the error register 1001h: sim::canopen::EmcyProducer.
 // A thin scripted layer on top serves the master's negative tests (the knobs below: aborts on
-// request, silence, lost NMT starts, ...) and objects outside the dictionary (strings and
-// domains longer than 4 bytes such as 1008h, made-up ones: `od`). Its PDO handling (the
-// master's fixed layouts) is still its own, not sim::canopen::PdoEngine. Values survive NMT
-// resets (the test's set-up stands for the drive's stored parameters). Everything it sends is
-// encoded with firmware_if, so no index or COB-ID is written twice. Deterministic: it acts only in
-// step(), called by the test (or by StepWaiter), never on a thread; time is the test's ManualClock.
+// request, silence at SYNC, lost NMT starts, ...; send_tpdo repeats the last SYNC's TPDOs,
+// send_digital_inputs sends TPDO2 at once) and objects outside the dictionary (strings and
+// domains longer than 4 bytes such as 1008h, made-up ones: `od`). Values survive NMT resets (the
+// test's set-up stands for the drive's stored parameters). Everything it sends is encoded with
+// firmware_if or the slave parts, so no index or COB-ID is written twice. Deterministic: it acts
+// only in step(), called by the test (or by StepWaiter), never on a thread; time is the test's
+// ManualClock (the PDO engine's: the received frames' timestamps).
 #include <cstdint>
 #include <map>
 #include <set>
@@ -63,7 +71,7 @@ class FakeSlave {
   // ---- knobs ----
   bool boots = true;  // after an NMT reset: boot-up message, else stays in Initialisation
   bool answers_sdo = true;
-  bool answers_sync = true;     // TPDO1 after SYNC when Operational
+  bool answers_sync = true;     // false: the TPDOs due at a SYNC are dropped
   bool ignores_writes = false;  // SDO write confirmed but value not stored (read-back test)
   bool cia402_stuck = false;    // ignores controlwords (transition timeout tests)
   bool fault_reset_works = true;
@@ -79,9 +87,11 @@ class FakeSlave {
   sim::canopen::NmtSlave nmt;  // CiA 301 NMT slave: state(), and what each state allows
   fw::Cia402State cia = fw::Cia402State::kSwitchOnDisabled;
   std::uint16_t controlword = 0;
-  std::int16_t target_torque = 0;
-  std::vector<std::int16_t> applied_torques;    // target torque at each SYNC (Operation enabled)
-  std::vector<std::uint16_t> controlwords;      // every controlword received
+  std::int16_t target_torque = 0;  // 6071h as the last RPDO wrote it (type 1: at a SYNC)
+  // The target torque in effect from each SYNC on (after its RPDOs acted), when Operation
+  // enabled.
+  std::vector<std::int16_t> applied_torques;
+  std::vector<std::uint16_t> controlwords;      // every controlword acted on
   std::map<Key, std::vector<std::uint8_t>> od;  // objects outside the dictionary
   int syncs = 0;
 
@@ -216,7 +226,6 @@ class FakeSlave {
       case fw::Function::kSync:
         if (!nmt.pdo_allowed()) return;
         ++syncs;
-        if (cia == fw::Cia402State::kOperationEnabled) applied_torques.push_back(target_torque);
         // The synchronous TPDOs sampled from the dictionary (CiA 301 7.3.2); answers_sync
         // = false drops them (the scripted layer).
         last_tpdos_.clear();
@@ -225,6 +234,7 @@ class FakeSlave {
         // Then the synchronous RPDOs received since the previous SYNC take effect (CiA 301
         // 7.3.2), as in the emulator.
         pdos_.latch_at_sync(dict_, pdo_hooks_, f.timestamp_ns);
+        if (cia == fw::Cia402State::kOperationEnabled) applied_torques.push_back(target_torque);
         return;
       case fw::Function::kRpdo1:
         on_rpdo(f);
