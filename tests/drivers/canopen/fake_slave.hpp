@@ -24,6 +24,7 @@
 // only in step(), called by the test (or by StepWaiter), never on a thread; time is the test's
 // ManualClock (the PDO engine's: the received frames' timestamps).
 #include <cstdint>
+#include <cstdio>
 #include <map>
 #include <set>
 #include <stdexcept>
@@ -166,10 +167,13 @@ class FakeSlave {
       if (!sim::canopen::PdoEngine::is_parameter(w.entry.index)) continue;
       const int s = dict_.find(w.entry);
       const std::uint32_t abort = s < 0 ? 0x06020000u : hooks_.download(s, w.value);
-      if (abort != 0)
-        throw std::runtime_error("FakeSlave::configure_pdos: node " + std::to_string(node_) +
-                                 " refused " + std::to_string(w.entry.index) + " sub " +
-                                 std::to_string(w.entry.subindex) + " (" + w.why + ")");
+      if (abort != 0) {
+        char what[160];
+        std::snprintf(what, sizeof what,
+                      "FakeSlave::configure_pdos: node %u refused %04Xh sub%u = %08Xh (%s): %08Xh",
+                      node_, w.entry.index, w.entry.subindex, w.value, w.why, abort);
+        throw std::runtime_error(what);
+      }
     }
   }
   // The drive faults on its own (e.g. over-temperature): EMCY + Fault.
@@ -251,8 +255,6 @@ class FakeSlave {
   }
 
  private:
-  bool statusword_sent_ = false;
-  std::uint16_t last_statusword_ = 0;
   // An RPDO through the engine: written into the dictionary (at once, or at the next SYNC
   // for the synchronous types), acted on in PdoAdapter::written. One shorter than its
   // mapping is not processed: EMCY 8210h until a correct one (CiA 301 7.2.2.2).

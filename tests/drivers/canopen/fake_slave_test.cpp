@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -93,6 +94,20 @@ TEST_F(FakeSlavePdos, BroadcastLayoutAsTheMasterMapsIt) {
   EXPECT_EQ(slave.target_torque, -20);
   // Statusword unchanged: TPDO3 is not sent again.
   EXPECT_EQ(send("080#"), Frames{"183#FEFFFFFF"});
+}
+
+TEST_F(FakeSlavePdos, ConfigurePdosNamesARefusedWrite) {
+  // The fd layout maps 16 bytes into RPDO2 (1601h): a classic drive refuses the count with
+  // 06040042h (mapping longer than the PDO, CiA 301 7.5.2.36).
+  CanConfig config = default_can_config();
+  config.bus_layout = fw::BusLayout::kFd;
+  try {
+    slave.configure_pdos(config, 0);
+    FAIL() << "no refusal";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("1601h sub0 = 00000008h"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(": 06040042h"), std::string::npos) << e.what();
+  }
 }
 
 TEST_F(FakeSlavePdos, MappingChangesFollowCiA301) {
