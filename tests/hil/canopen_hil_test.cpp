@@ -78,7 +78,6 @@ int run_fake_drives(int argc, char** argv) {
     buses.push_back(std::make_unique<SocketCanBus>(c));
     slaves.push_back(std::make_unique<test::FakeSlave>(*buses.back(), id));
     slaves.back()->boots = id != refuse_boot;
-    slaves.back()->slot = static_cast<std::uint8_t>(id - 1);
     slaves.back()->position = 1000 * id;
   }
   // Tell the parent the sockets are open (fd 3 is the write end of its pipe).

@@ -29,9 +29,8 @@ struct SetFixture : ::testing::Test {
       slaves.push_back(std::make_unique<FakeSlave>(hub.endpoint(static_cast<std::size_t>(i) + 1),
                                                    static_cast<std::uint8_t>(i + 1)));
       (void)slaves.back()->nmt.on_command(
-          fw::NmtCommand::kStart);  // booted (boot_test covers boot)
-      slaves.back()->slot = static_cast<std::uint8_t>(i);
-      slaves.back()->broadcast = layout == fw::BusLayout::kBroadcast;
+          fw::NmtCommand::kStart);               // booted (boot_test covers boot)
+      slaves.back()->configure_pdos(config, i);  // the PDOs as the master's boot writes them
       slaves.back()->position = 10000 * (i + 1);
     }
     set = std::make_unique<CanopenActuatorSet>(hub.endpoint(0), clock, config);
@@ -106,9 +105,13 @@ TEST_F(SetFixture, EnableWithoutMotionThenTorqueInPerMille) {
   int first_nonzero = -1;
   for (std::size_t i = 0; i < t.size(); ++i)
     if (t[i] != 0 && first_nonzero < 0) first_nonzero = static_cast<int>(i);
-  EXPECT_EQ(first_nonzero, 4);  // cycle 0: no statusword yet (disable voltage); cycles 1..3:
-                                // transitions 2, 3, 4; cycle 4 reads Operation enabled
-  EXPECT_EQ(t.back(), 200);     // 10 N m of 50 N m rated = 200 per mille
+  // RPDO1 is synchronous (type 1): the drive acts on a controlword at the SYNC after it and
+  // its TPDO1 answer to that SYNC was sampled before (CiA 301 7.3.2), so a CiA 402 step
+  // takes two cycles. Cycle 0: no statusword yet (disable voltage); cycles 1..2, 3..4, 5..6:
+  // transitions 2, 3, 4 (each seen in the statusword one cycle later); cycle 7 reads
+  // Operation enabled.
+  EXPECT_EQ(first_nonzero, 7);
+  EXPECT_EQ(t.back(), 200);                        // 10 N m of 50 N m rated = 200 per mille
   EXPECT_EQ(slave(0).applied_torques.front(), 0);  // no motion on enable
   EXPECT_EQ(fb.drive[0].state, DriveState::kEnabled);
   EXPECT_EQ(set->last_sent(0).torque_per_mille, 200);
@@ -125,15 +128,17 @@ TEST_F(SetFixture, StaleTargetNeverReplayedAfterReEnable) {
   EXPECT_EQ(slave(2).cia, fw::Cia402State::kQuickStopActive);
   (void)wire_torques(3);
   // Re-enable while the controller (wrongly) still holds the old 10 N m: the wire shows 0
-  // during the whole walk (12, 2, 3, 4: four cycles) and the drive never applies the old 200
-  // at re-entry; from the cycle that sees Operation enabled on, the current command goes out.
+  // during the whole walk (12, 2, 3, 4: eight cycles, two per step as RPDO1 acts at the SYNC
+  // after it, its TPDO1 answer sampled before: CiA 301 7.3.2) and the drive never applies
+  // the old 200 at re-entry; from the cycle that sees Operation enabled on, the current
+  // command goes out.
   cmd.torque.fill(10.0);
   const std::size_t applied_before = slave(2).applied_torques.size();
-  for (int i = 0; i < 6; ++i) cycle(DriveRequest::kEnable);
+  for (int i = 0; i < 10; ++i) cycle(DriveRequest::kEnable);
   const std::vector<std::int16_t> t = wire_torques(3);
-  ASSERT_GE(t.size(), 6u);
-  for (int i = 0; i < 4; ++i) EXPECT_EQ(t[static_cast<std::size_t>(i)], 0) << i;
-  EXPECT_EQ(t[4], 200);
+  ASSERT_GE(t.size(), 10u);
+  for (int i = 0; i < 8; ++i) EXPECT_EQ(t[static_cast<std::size_t>(i)], 0) << i;
+  EXPECT_EQ(t[8], 200);
   ASSERT_GT(slave(2).applied_torques.size(), applied_before);
   EXPECT_EQ(slave(2).applied_torques[applied_before], 0);
 }
@@ -238,14 +243,14 @@ TEST(CanopenActuatorSetCycleClock, ACycleReadsNoClockAndJudgesTimeoutsAtItsWakeU
   } base;
   canopen::CycleClock clock(base);
   InProcessHub hub(5, 1024);
+  const CanConfig config = default_can_config();
   std::vector<std::unique_ptr<FakeSlave>> slaves;
   for (int i = 0; i < 4; ++i) {
     slaves.push_back(std::make_unique<FakeSlave>(hub.endpoint(static_cast<std::size_t>(i) + 1),
                                                  static_cast<std::uint8_t>(i + 1)));
     (void)slaves.back()->nmt.on_command(fw::NmtCommand::kStart);  // booted
-    slaves.back()->slot = static_cast<std::uint8_t>(i);
+    slaves.back()->configure_pdos(config, i);  // the PDOs as the master's boot writes them
   }
-  const CanConfig config = default_can_config();
   CanopenActuatorSet set(hub.endpoint(0), clock, config);
   ActuatorFeedback fb;
   ActuatorCommand cmd;
@@ -367,7 +372,10 @@ TEST_F(SetFixture, BusOffLatchedNoAutomaticReEnable) {
     EXPECT_EQ(fb.drive[i].state, DriveState::kDisabled) << i;
     EXPECT_EQ(set->last_sent(i).torque_per_mille, 0) << i;
   }
-  for (int i = 0; i < 6; ++i) cycle(DriveRequest::kEnable);
+  // Three CiA 402 steps (2, 3, 4), each a cycle longer than the fake once took: RPDO1 acts
+  // at the SYNC after it and the TPDO1 answering that SYNC was sampled before (CiA 301
+  // 7.3.2); 4 cycles became 7, the budget 6 became 9.
+  for (int i = 0; i < 9; ++i) cycle(DriveRequest::kEnable);
   EXPECT_EQ(fb.drive[0].state, DriveState::kEnabled);
 }
 
@@ -419,6 +427,9 @@ TEST_F(SetFixture, WrongCommandShapeDisables) {
   enable_all();
   cmd.n = 3;
   EXPECT_EQ(cycle(DriveRequest::kHold), IoStatus::kBusError);
+  // The disabling controlword acts at the SYNC after it, the TPDO1 answering that SYNC was
+  // sampled before (CiA 301 7.3.2): the next statusword shows it.
+  cycle(DriveRequest::kHold);
   cycle(DriveRequest::kHold);
   EXPECT_EQ(fb.drive[0].state, DriveState::kDisabled);
 }

@@ -1,28 +1,39 @@
 #pragma once
 // A small scripted CANopen CiA 402 slave for the master's unit tests (not the emulator):
-// answers NMT, SDO (expedited and segmented), SYNC (TPDO1) and takes RPDOs. Where it models
+// answers NMT, SDO (expedited and segmented), SYNC (its TPDOs) and takes RPDOs. Where it models
 // a conforming slave it is made of the emulator's slave parts (sim/canopen/, library
 // dualv_canopen_slave):
 // - NMT states, boot-up message, heartbeat producer (1017h): sim::canopen::NmtSlave;
 // - the object dictionary (the emulator's objects incl. the PDO records of
 //   PdoEngine::add_objects): sim::canopen::ObjectDictionary, served by sim::canopen::SdoServer;
+// - PDOs: sim::canopen::PdoEngine, mapped from that dictionary (1400h..1403h, 1600h..1603h,
+//   1800h..1803h, 1A00h..1A03h as the master writes them at boot, downloads checked by
+//   PdoEngine::check_write; tests that skip the boot write the same records with
+//   configure_pdos). At a SYNC the TPDOs are sampled first, then the synchronous RPDOs
+//   received since the previous SYNC act (CiA 301 7.3.2): a controlword of RPDO1 (type 1) shows
+//   in the statusword of the TPDO after the next SYNC. An RPDO shorter than its mapping is not
+//   processed: EMCY 8210h until a correct one;
 // - CiA 402 state machine and statusword: sim::canopen::Cia402Slave;
 // - a fault's EMCY and the error register 1001h: sim::canopen::EmcyProducer.
 // A thin scripted layer on top serves the master's negative tests (the knobs below: aborts on
-// request, silence, lost NMT starts, ...) and objects outside the dictionary (strings and
-// domains longer than 4 bytes such as 1008h, made-up ones: `od`). Its PDO handling (the
-// master's fixed layouts) is still its own, not sim::canopen::PdoEngine. Values survive NMT
-// resets (the test's set-up stands for the drive's stored parameters). Everything it sends is
-// encoded with firmware_if, so no index or COB-ID is written twice. Deterministic: it acts only in
-// step(), called by the test (or by StepWaiter), never on a thread; time is the test's ManualClock.
+// request, silence at SYNC, lost NMT starts, ...; send_tpdo repeats the last SYNC's TPDOs,
+// send_digital_inputs sends TPDO2 at once) and objects outside the dictionary (strings and
+// domains longer than 4 bytes such as 1008h, made-up ones: `od`). Values survive NMT resets (the
+// test's set-up stands for the drive's stored parameters). Everything it sends is encoded with
+// firmware_if or the slave parts, so no index or COB-ID is written twice. Deterministic: it acts
+// only in step(), called by the test (or by StepWaiter), never on a thread; time is the test's
+// ManualClock (the PDO engine's: the received frames' timestamps).
 #include <cstdint>
+#include <cstdio>
 #include <map>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "drivers/can/in_process_bus.hpp"
+#include "drivers/canopen/boot.hpp"
 #include "drivers/canopen/clock.hpp"
 #include "drivers/canopen/waiter.hpp"
 #include "firmware_if/firmware_if.hpp"
@@ -45,8 +56,10 @@ inline std::vector<std::uint8_t> le_bytes(std::uint32_t v, std::size_t n) {
 
 class FakeSlave {
  public:
-  FakeSlave(CanBus& bus, std::uint8_t node) : bus_(bus), node_(node), sink_(*this), hooks_(*this) {
+  FakeSlave(CanBus& bus, std::uint8_t node)
+      : bus_(bus), node_(node), sink_(*this), hooks_(*this), pdo_hooks_(*this) {
     add_objects();
+    pdos_.rebuild(dict_);
     emcy_.attach(node, dict_.find(fw::od::kErrorRegister));
     nmt.attach(node, dict_.find(fw::od::kProducerHeartbeat));
     server_.configure(node, {});
@@ -59,7 +72,7 @@ class FakeSlave {
   // ---- knobs ----
   bool boots = true;  // after an NMT reset: boot-up message, else stays in Initialisation
   bool answers_sdo = true;
-  bool answers_sync = true;     // TPDO1 after SYNC when Operational
+  bool answers_sync = true;     // false: the TPDOs due at a SYNC are dropped
   bool ignores_writes = false;  // SDO write confirmed but value not stored (read-back test)
   bool cia402_stuck = false;    // ignores controlwords (transition timeout tests)
   bool fault_reset_works = true;
@@ -75,9 +88,11 @@ class FakeSlave {
   sim::canopen::NmtSlave nmt;  // CiA 301 NMT slave: state(), and what each state allows
   fw::Cia402State cia = fw::Cia402State::kSwitchOnDisabled;
   std::uint16_t controlword = 0;
-  std::int16_t target_torque = 0;
-  std::vector<std::int16_t> applied_torques;    // target torque at each SYNC (Operation enabled)
-  std::vector<std::uint16_t> controlwords;      // every controlword received
+  std::int16_t target_torque = 0;  // 6071h as the last RPDO wrote it (type 1: at a SYNC)
+  // The target torque in effect from each SYNC on (after its RPDOs acted), when Operation
+  // enabled.
+  std::vector<std::int16_t> applied_torques;
+  std::vector<std::uint16_t> controlwords;      // every controlword acted on
   std::map<Key, std::vector<std::uint8_t>> od;  // objects outside the dictionary
   int syncs = 0;
 
@@ -127,30 +142,40 @@ class FakeSlave {
   }
   std::uint16_t statusword() const { return cia402_.statusword(); }
   std::uint8_t error_register() const { return emcy_.error_register(); }
-  // TPDO2 as the master maps it (60FDh digital inputs, 4 bytes on 280h + id).
+  // The digital inputs 60FDh change to `di`, and the event-driven TPDO2 (as the master maps
+  // it: 60FDh, 4 bytes on 280h + id) goes out at once, as a drive sends one on the event
+  // (scripted: the PdoEngine sends event-driven TPDOs at a SYNC or on their timers only; at
+  // the next SYNC it sends the changed 60FDh again).
   void send_digital_inputs(std::uint32_t di) {
+    dict_.set(dict_.find(fw::od::kDigitalInputs), di);
     fw::CanFrame f;
     f.id = fw::cob_id(fw::Function::kTpdo2, node_);
     f.dlc = 4;
     fw::put_u32_le(f.data.data(), di);
     (void)bus_.send(f);
   }
-  // Per-drive: TPDO1 = statusword + position. Broadcast layout (`broadcast`): TPDO1 =
-  // position, and TPDO3 = statusword when it changed since the last one (no inhibit time:
-  // the emulator models that).
+  // Scripted: the TPDOs the engine sent at the last SYNC, once more (a duplicate).
   void send_tpdo() {
-    if (!broadcast) {
-      send(fw::encode_tpdo1(node_, {statusword(), position}));
-      return;
-    }
-    send(fw::encode_position_tpdo(node_, position));
-    if (!statusword_sent_ || statusword() != last_statusword_) {
-      send(fw::encode_statusword_tpdo(node_, statusword()));
-      statusword_sent_ = true;
-      last_statusword_ = statusword();
+    for (const fw::CanFrame& f : last_tpdos_) (void)bus_.send(f);
+  }
+  // The PDO configuration the master writes at boot for drive `drive` of `config`
+  // (drivers/canopen/boot.hpp boot_writes: the 1400h../1600h../1800h../1A00h.. writes, in
+  // order), through the same checks as an SDO download (PdoEngine::check_write), for tests
+  // that skip the boot. Throws std::runtime_error naming the entry when one is refused.
+  void configure_pdos(const CanConfig& config, int drive) {
+    for (const canopen::ConfigWrite& w : canopen::boot_writes(config, drive)) {
+      if (!sim::canopen::PdoEngine::is_parameter(w.entry.index)) continue;
+      const int s = dict_.find(w.entry);
+      const std::uint32_t abort = s < 0 ? 0x06020000u : hooks_.download(s, w.value);
+      if (abort != 0) {
+        char what[160];
+        std::snprintf(what, sizeof what,
+                      "FakeSlave::configure_pdos: node %u refused %04Xh sub%u = %08Xh (%s): %08Xh",
+                      node_, w.entry.index, w.entry.subindex, w.value, w.why, abort);
+        throw std::runtime_error(what);
+      }
     }
   }
-  bool broadcast = false;
   // The drive faults on its own (e.g. over-temperature): EMCY + Fault.
   // The EMCY carries the error register of the code's class (4210h: generic + temperature);
   // a fault reset sends EMCY 0000h (sim::canopen::EmcyProducer).
@@ -187,6 +212,7 @@ class FakeSlave {
           return;
         }
         const sim::canopen::NmtChange change = nmt.on_command(m->command);
+        if (!nmt.pdo_allowed()) pdos_.stop();  // PDOs exist in Operational only
         if (change.reset_application || change.reset_communication) {
           cia402_.power_on();
           cia = cia402_.state();
@@ -204,27 +230,22 @@ class FakeSlave {
       case fw::Function::kSync:
         if (!nmt.pdo_allowed()) return;
         ++syncs;
+        // The synchronous TPDOs sampled from the dictionary (CiA 301 7.3.2); answers_sync
+        // = false drops them (the scripted layer).
+        last_tpdos_.clear();
+        refresh();
+        pdos_.transmit_at_sync(dict_, pdo_hooks_, f.timestamp_ns);
+        // Then the synchronous RPDOs received since the previous SYNC take effect (CiA 301
+        // 7.3.2), as in the emulator.
+        pdos_.latch_at_sync(dict_, pdo_hooks_, f.timestamp_ns);
         if (cia == fw::Cia402State::kOperationEnabled) applied_torques.push_back(target_torque);
-        if (answers_sync) send_tpdo();
         return;
       case fw::Function::kRpdo1:
-        if (info->node != node_ || !nmt.pdo_allowed()) return;
-        if (f.dlc == 4) {
-          const auto c = fw::decode_rpdo1(f);
-          if (c) {
-            target_torque = c->target_torque;
-            on_controlword(c->controlword);
-          }
-        } else if (const auto cw = fw::decode_controlword_rpdo(f)) {
-          on_controlword(*cw);
-        }
+        on_rpdo(f);
         return;
-      case fw::Function::kBroadcastRpdo: {
-        if (!nmt.pdo_allowed()) return;
-        const auto t = fw::decode_broadcast_torque(f, slot);
-        if (t) target_torque = *t;
+      case fw::Function::kBroadcastRpdo:  // 200h: RPDO2 of the broadcast and fd layouts
+        on_rpdo(f);
         return;
-      }
       case fw::Function::kSdoRx:
         if (info->node == node_ && answers_sdo && nmt.sdo_allowed()) sdo(f);
         return;
@@ -233,12 +254,17 @@ class FakeSlave {
     }
   }
 
- public:
-  std::uint8_t slot = 0;  // broadcast layout: this drive's slot
-
  private:
-  bool statusword_sent_ = false;
-  std::uint16_t last_statusword_ = 0;
+  // An RPDO through the engine: written into the dictionary (at once, or at the next SYNC
+  // for the synchronous types), acted on in PdoAdapter::written. One shorter than its
+  // mapping is not processed: EMCY 8210h until a correct one (CiA 301 7.2.2.2).
+  void on_rpdo(const fw::CanFrame& f) {
+    const sim::canopen::RpdoReceipt r =
+        pdos_.on_rpdo(f, nmt.pdo_allowed(), dict_, pdo_hooks_, f.timestamp_ns);
+    if (r.too_short && !emcy_.active(kPdoLengthCondition))
+      emcy_.raise(dict_, kPdoLengthCondition, fw::emcy::kPdoLengthError, true, sink_);
+    if (r.accepted) emcy_.clear(dict_, kPdoLengthCondition, true, sink_);
+  }
   void on_controlword(std::uint16_t cw) {
     controlword = cw;
     controlwords.push_back(cw);
@@ -403,8 +429,13 @@ class FakeSlave {
   struct Hooks final : sim::canopen::SdoServerHooks {
     explicit Hooks(FakeSlave& s) : slave(s) {}
     std::uint32_t download(int slot, std::uint32_t value) noexcept override {
+      const fw::OdEntry& e = slave.dict_.entry(slot);
+      // PDO records: CiA 301 7.5.2.35..38 (valid COB-ID, mapping only while invalid, ...).
+      if (const std::uint32_t abort = slave.pdos_.check_write(slave.dict_, e, value); abort != 0)
+        return abort;
       if (slave.ignores_writes) return 0;
       slave.dict_.set(slot, value);
+      if (sim::canopen::PdoEngine::is_parameter(e.index)) slave.pdos_.rebuild(slave.dict_);
       if (slot == slave.dict_.find(fw::od::kProducerHeartbeat))
         slave.nmt.producer_time_written(slave.dict_, slave.now_ns_);
       return 0;
@@ -412,6 +443,29 @@ class FakeSlave {
     void before_upload(int) noexcept override {}
     FakeSlave& slave;
   };
+  // Behind the PdoEngine: TPDOs out (unless answers_sync is false), values to sample.
+  struct PdoAdapter final : sim::canopen::PdoHooks {
+    explicit PdoAdapter(FakeSlave& s) : slave(s) {}
+    void transmit(const fw::CanFrame& f) noexcept override {
+      if (!slave.answers_sync) return;
+      (void)slave.bus_.send(f);
+      slave.last_tpdos_.push_back(f);
+    }
+    // A mapped object written by an RPDO: the controlword acts, the target torque is taken.
+    void written(int slot, std::uint64_t) noexcept override {
+      if (slot == slave.dict_.find(fw::od::kControlword))
+        slave.on_controlword(static_cast<std::uint16_t>(slave.dict_.u(slot)));
+      else if (slot == slave.dict_.find(fw::od::kTargetTorque))
+        slave.target_torque = static_cast<std::int16_t>(slave.dict_.u(slot));
+    }
+    void before_sample() noexcept override { slave.refresh(); }
+    FakeSlave& slave;
+  };
+  // The application's values into the dictionary before the engine samples them.
+  void refresh() {
+    dict_.set(dict_.find(fw::od::kStatusword), statusword());
+    dict_.set(dict_.find(fw::od::kPositionActual), static_cast<std::uint32_t>(position));
+  }
   struct Discard final : sim::canopen::FrameSink {
     void send(const fw::CanFrame&) noexcept override {}
   };
@@ -421,6 +475,7 @@ class FakeSlave {
     FakeSlave& slave;
   };
   static constexpr int kFaultCondition = 0;
+  static constexpr int kPdoLengthCondition = 1;  // 8210h: an RPDO shorter than its mapping
 
   CanBus& bus_;
   std::uint8_t node_;
@@ -429,7 +484,10 @@ class FakeSlave {
   Hooks hooks_;
   sim::canopen::ObjectDictionary dict_;  // 1001h owned by emcy_, 1017h read by nmt
   sim::canopen::SdoServer server_;
-  bool scripted_transfer_ = false;  // the SDO transfer under way is the scripted layer's
+  sim::canopen::PdoEngine pdos_;  // mapped from dict_ (1400h..1A03h as the master writes them)
+  PdoAdapter pdo_hooks_;
+  std::vector<fw::CanFrame> last_tpdos_;  // sent at the last SYNC (send_tpdo)
+  bool scripted_transfer_ = false;        // the SDO transfer under way is the scripted layer's
   sim::canopen::EmcyProducer emcy_;
   std::uint64_t now_ns_ = 0;  // the last tick()
   Key seg_key_{};
