@@ -259,7 +259,7 @@ for ((attempt = 1; attempt <= attempts && emcy_shown == 0 && failed == 0; ++atte
   if grep -qxF "$emcy" <<<"$causes"; then
     # Decoded, a drive fault of drive 3 with reaction STO, and the only stop apart from the
     # timing watchdogs (which may fire in the same cycles).
-    grep '"event":"fault"' "$tmp/$name/faults.jsonl" | grep -F "\"text\":\"$emcy\"" |
+    grep '"event":"fault"' "$tmp/$name/faults.jsonl" | grep -F "\"text\":\"$emcy -> STO\"" |
       grep -q '"cause":"drive fault","reaction":"STO"' ||
       fail "foreign: EMCY 4210h of node 3 not a drive fault with reaction STO in the fault log"
     others=$(grep -vxF "$emcy" <<<"$causes")
