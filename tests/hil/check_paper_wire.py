@@ -13,6 +13,11 @@ and the capture, and checks, on the frames only:
   - no target torque above the configured limit: min(safety.torque.max, the drive's
     max_torque) in N m, from per mille with the drive's rated_torque (half an LSB allowed)
   - the robot moved: some RPDO carries a non-zero torque with "enable operation" (0Fh)
+  - with --sto-cycle K (the first STO in the run's fault log, faults.jsonl): from control
+    cycle K on (its RPDOs precede the (P + K + 1)th SYNC) every target torque is 0 and no
+    controlword is "enable operation" (safety/fault.hpp: STO in the detection cycle), and
+    every drive's last RPDO carries torque 0 and a controlword that is not "enable operation";
+    such a run need not have moved (a timing watchdog may stop it in cycle 0)
   - with --sto-after NODE:CODE (hex), the defined reaction to that drive's fault EMCY
     (safety/fault.hpp: drive fault -> STO): from the third SYNC after the first EMCY
     (80h + NODE) with that error code on, every target torque is 0, and every drive's last
@@ -57,6 +62,8 @@ def main():
     ap.add_argument("--run-log", required=True, help="stdout of `dualv run --can`")
     ap.add_argument("--sto-after", metavar="NODE:CODE",
                     help="expect STO after this drive's EMCY (e.g. 2:2310)")
+    ap.add_argument("--sto-cycle", metavar="K", type=int,
+                    help="the run's fault log has STO from control cycle K on")
     ap.add_argument("capture", help="candump -l log")
     a = ap.parse_args()
     sto_cob = sto_code = None
@@ -65,6 +72,8 @@ def main():
         sto_cob, sto_code = 0x080 + int(node), int(code, 16)
     drives, safety_max = parse_config(a.config)
     cycles, syncs_sent, priming = parse_run_log(a.run_log)
+    # Control cycle K's RPDOs go out before the SYNC that ends it, the (priming + K + 1)th.
+    sto_from = None if a.sto_cycle is None else priming + a.sto_cycle
     by_cob = {0x200 + d["node"]: d for d in drives}
     errors = []
 
@@ -77,6 +86,7 @@ def main():
     emcy_at = None
     syncs_after_emcy = 0
     after = []
+    after_sto = []
     last = {}
     for ts, cob, data in frames(a.capture):
         if cob == sto_cob and len(data) == 8 and emcy_at is None and \
@@ -117,6 +127,9 @@ def main():
         last[cob] = (ts, cw, tq)
         if emcy_at is not None and syncs_after_emcy >= 3 and tq != 0:
             after.append(f"{ts:.6f} {cob:03X}: {nm:.3f} N m after the EMCY")
+        if sto_from is not None and syncs >= sto_from and (tq != 0 or (cw & 0x0F) == 0x0F):
+            after_sto.append(f"{ts:.6f} {cob:03X}: controlword {cw:04X}, {nm:.3f} N m in control "
+                             f"cycle {syncs - priming}, after STO from cycle {a.sto_cycle}")
     trailing = [f"{c:03X}" for c, k in since_sync.items() if k]
     if trailing:
         errors.append(f"RPDOs after the last SYNC from {', '.join(trailing)}")
@@ -135,17 +148,24 @@ def main():
             errors.append(f"no EMCY {sto_code:04X}h from {sto_cob:03X} on the wire")
         else:
             errors += after[:5]
-            for cob, (ts, cw, tq) in sorted(last.items()):
-                if tq != 0 or (cw & 0x0F) == 0x0F:
-                    errors.append(f"{cob:03X}: last RPDO at {ts:.6f}: controlword {cw:04X}, torque "
-                                  f"{tq} per mille (expected STO: torque 0, not enabled)")
-    if moving == 0:
+    if sto_from is not None:
+        errors += after_sto[:5]
+        if len(after_sto) > 5:
+            errors.append(f"{len(after_sto)} RPDOs with torque or enabled after the STO in all")
+    stopped = sto_cob is not None or sto_from is not None
+    for cob, (ts, cw, tq) in sorted(last.items()):
+        if stopped and (tq != 0 or (cw & 0x0F) == 0x0F):
+            errors.append(f"{cob:03X}: last RPDO at {ts:.6f}: controlword {cw:04X}, torque "
+                          f"{tq} per mille (expected STO: torque 0, not enabled)")
+    # A run stopped by a timing watchdog may stop before the robot moves (cycle 0).
+    if moving == 0 and sto_from is None:
         errors.append("no RPDO with torque in Operation enabled: the robot never moved")
     print(f"check_paper_wire: {syncs} SYNCs = {priming} priming + {cycles} control cycles "
           f"+ {DISABLE_CYCLES} disable "
           f"(master: {syncs_sent}); {rpdos} RPDOs from {len(drives)} drives; "
           f"max |target torque| {worst:.2f} N m (limit {safety_max} N m): "
           f"{'STO after the EMCY, ' if emcy_at is not None else ''}"
+          f"{f'STO from cycle {a.sto_cycle}, ' if sto_from is not None else ''}"
           f"{'ok' if not errors else 'FAILED'}")
     for e in errors[:30]:
         print("  " + e)

@@ -55,3 +55,17 @@ serve_reset() {
 timing_stops() {
   grep '"event":"fault"' | grep -qE '"cause":"(consecutive deadline misses|stale feedback)","reaction":"STO"'
 }
+
+# timing_stops_only: 0 when the stopping faults on stdin (one a line: a faults.jsonl "text"
+# without its " -> STO", e.g. "stale feedback drive 1: 3 (limit 3)") are all stops by the
+# loop's own timing watchdogs (safety/fault.hpp: consecutive deadline misses, stale feedback,
+# a drive lost to the heartbeat timeout) or by a drive's watchdog on the master's timing (EMCY
+# 8250h: its RPDO deadline; 8130h: its consumer of the master's heartbeat): what a slow or
+# frozen guest causes. 1 for an empty input.
+timing_stops_only() {
+  local causes
+  causes=$(cat)
+  [[ -n $causes ]] || return 1
+  ! grep -vE '^((consecutive deadline misses|stale feedback|drive lost)( drive [0-9]+)?(: .*)?|drive fault drive [0-9]+: EMCY 8(250|130)h)$' \
+    <<<"$causes" | grep -q .
+}

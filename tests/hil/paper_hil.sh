@@ -1,49 +1,72 @@
 #!/usr/bin/env bash
-# HIL (issue 5): the paper program in closed loop over real SocketCAN (vcan0, run through
-# run_in_vcan.sh) between two processes, as on the machine: `dualv sim --can vcan0` (four
-# CiA 402 drives + the mechanism) and `dualv run --can vcan0` (the controller). Checks:
+# HIL (issue 5, issue 12 "test what ships"): the paper program in closed loop over real
+# SocketCAN (vcan0, run through run_in_vcan.sh) between two processes, as on the machine:
+# `dualv sim --can vcan0` (four CiA 402 drives + the mechanism) and `dualv run --can vcan0`
+# (the controller), with the configuration given on the command line UNCHANGED (the shipped
+# config/dualv.yaml: 1 kHz, shipped gains, deadlines, watchdogs and limits). Checks:
 #   1. paper:   the run completes, and its tracking errors (summary.csv, `all` row of the
 #               retimed run: max |ex|, max |ey|, max |e|, rms |e|) are within 2x (+ 0.01 mm)
 #               of the in-process run of the same configuration (`dualv run`, simulated time)
-#   2. wire:    the `candump -l` log of that run (check_paper_wire.py): SYNC count = priming +
-#               control cycles = what the master sent; every drive's RPDO before every SYNC;
-#               no target torque above the configured limit; the robot moved
-#   3. foreign: frames injected with cansend during a second run (unknown COB-IDs, wrong
-#               DLC, an SDO abort): no crash, both processes keep running, the master and the
-#               emulator count them; then an EMCY 4210h from node 3 (cansend): decoded, and the
-#               defined reaction (safety/fault.hpp: drive fault -> STO), checked on the wire
+#   2. wire:    the `candump -l` log of every run (check_paper_wire.py): SYNC count on the
+#               wire = what the master says it sent = priming + control cycles + disable
+#               cycles; every drive's RPDO before every SYNC; no target torque above the
+#               configured limit; a completed run moved the robot; a stopped run (STO in its
+#               fault log) sends zero torque and no "enable operation" from the STO's cycle on
+#               and leaves every drive disabled
+#   3. foreign: frames injected with canplayer during a second run (unknown COB-IDs, wrong
+#               DLC, an SDO abort), then an EMCY 4210h from node 3: neither process crashes
+#               (the run exits 1, the emulator 0 on SIGTERM), the emulator counts them all;
+#               the EMCY is decoded, in the fault log as a drive fault of drive 3 with
+#               reaction STO (safety/fault.hpp), the master counted the foreign frames that
+#               came before it on the bus, and the wire shows the STO
 #               (check_paper_wire.py --sto-after: zero torque from the third SYNC after the
 #               EMCY, every drive disabled at the end)
 #
-# The user-mode-linux guest is a single, slow CPU with ms-scale stalls, so the test runs a
-# HIL overlay of the configuration (written below, the production file is not changed):
-#   - 250 Hz (can.sync.period 4 ms) instead of 1 kHz, with gains stable at that rate
-#     (kp 200, kd 8) and a velocity filter below its Nyquist rate (100 Hz < 125 Hz); the
-#     in-process reference uses the same overlay
-#   - the emulator runs SCHED_FIFO 90 above the control loop (SCHED_FIFO 80) and candump at
-#     95 with a large receive buffer: like drive hardware, the emulator answers every SYNC
-#     before the controller's next cycle, and no frame is lost from the capture
-#   - timing watchdogs widened (deadline misses, stale feedback, heartbeat and RPDO
-#     deadlines) and safety.max_tracking_error 10 mm: the 2x comparison is the check here
-#   - the emulator's free run (its plant advancing without SYNC after 50 ms of silence: a
-#     dead master) is off: the guest sometimes freezes as a whole for that long (host load),
-#     and the emulator, running first when it thaws, would take that for a dead master
-# Behaviour and ordering are asserted, never latency. Needs can-utils (candump, cansend).
+# Timing in the guest: the user-mode-linux guest is one slow virtual CPU (every syscall ~0.1 ms
+# of host time) that a loaded host freezes as a whole for ms to seconds (tests/hil/README.md).
+# It cannot always keep the shipped 1 kHz, and the test does not widen a deadline or lower the
+# rate to hide that. A run may end on the loop's own timing watchdogs (safety/fault.hpp:
+# consecutive deadline misses, stale feedback, a drive lost to the heartbeat timeout, or a
+# drive's EMCY 8250h / 8130h: its RPDO deadline or its consumer of the master's heartbeat).
+#   - gates whatever the timing: the wire checks of every run's capture (2: a stopped run's
+#     STO from the cycle of the first STO in its fault log), neither process crashing, the
+#     emulator's count of the foreign frames, and that every stop is a timing watchdog's or
+#     (3) the EMCY's
+#   - gates when the run read what it is about: the tracking comparison (1) when the run over
+#     vcan completed; the EMCY's decoding, STO and the master's counts (3) when the EMCY
+#     reached the running loop. A run that ended on a timing watchdog first is tried again (up
+#     to 4 attempts per part); when every attempt ended so, a NOTE gives each attempt's
+#     figures and that part is not shown here (no failure). Any other outcome (a stop of
+#     another cause, a crash, a wire violation) fails.
+# What is not the configuration, and why:
+#   - the emulator runs SCHED_FIFO 90 above the control loop (SCHED_FIFO 80, the shipped
+#     loop.priority) and candump at 95 with an 8 MB receive buffer: like drive hardware, the
+#     emulator answers every SYNC before the controller's next cycle, and no frame is lost
+#     from the capture. This relaxes no limit of the controller
+#   - `dualv sim` options: --free-run-after 0 (its plant does not advance without SYNC after
+#     50 ms of silence, the emulator's model of a dead master: a guest frozen as a whole by the
+#     host is not a dead master, and the emulator, running first when it thaws, would take it
+#     for one), --plant-step-nominal (the plant advances 1006h per SYNC: a freeze of the whole
+#     guest stops the controller's clock and the mechanism's alike, as it does not on the
+#     machine), --exit-after 600 (a leftover emulator ends by itself), --status-every 0 (no
+#     periodic status lines: fewer syscalls)
+# Behaviour and ordering are asserted, never latency. Needs can-utils (candump, canplayer).
 # Usage: paper_hil.sh DUALV_BINARY CONFIG_YAML [PROGRAM_YAML (default: paper.yaml beside it)]
-# KEEP=1 keeps the work folder (logs, captures, configuration) and prints its path.
+# KEEP=1 keeps the work folder (logs, captures, outputs) and prints its path.
 set -u
 . "$(dirname "$0")/hil_lib.sh"
 usage="usage: paper_hil.sh DUALV_BINARY CONFIG_YAML [PROGRAM_YAML]"
 dualv=${1:?$usage}
-config_in=${2:?$usage}
-program=${3:-$(dirname "$config_in")/paper.yaml}
+config=${2:?$usage}
+program=${3:-$(dirname "$config")/paper.yaml}
 here=$(cd "$(dirname "$0")" && pwd)
 py=/usr/bin/python3
 [[ -x $py ]] || py=python3
-for tool in candump cansend; do
+for tool in candump canplayer; do
   command -v "$tool" >/dev/null || { echo "FAIL: $tool not found (install can-utils)"; exit 1; }
 done
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/dualv-paper-hil.XXXXXX") || exit 1
+attempts=4
 
 sim_pid='' dump_pid='' run_pid=''
 # shellcheck disable=SC2317  # invoked by the EXIT trap
@@ -68,27 +91,6 @@ if [[ $(id -u) -eq 0 ]] && command -v chrt >/dev/null && chrt -f 90 true 2>/dev/
   sim_prefix=(chrt -f 90)
   dump_prefix=(chrt -f 95)
 fi
-
-# --- the HIL overlay of the configuration -----------------------------------------------
-config=$tmp/dualv-hil.yaml
-sed -e 's/^  rate_hz: [0-9.]*.*$/  rate_hz: 250.0\n  priority: 80\n  lock_memory: false/' \
-    -e 's/^    period: 0\.001 /    period: 0.004 /' \
-    -e 's/^  kp: [0-9.]*/  kp: 200.0/' -e 's/^  kd: [0-9.]*/  kd: 8.0/' \
-    -e 's/^  velocity_cutoff_hz: [0-9.]*/  velocity_cutoff_hz: 100.0/' \
-    -e 's/^    drive_timeout: [0-9.]*/    drive_timeout: 1.0/' \
-    -e 's/^    master_timeout: [0-9.]*/    master_timeout: 1.0/' \
-    -e 's/^  rpdo_deadline: [0-9.]*/  rpdo_deadline: 1.0/' \
-    -e 's/^  max_tracking_error: [0-9.]*/  max_tracking_error: 0.010/' \
-    -e 's/max_consecutive_deadline_misses: [0-9]*/max_consecutive_deadline_misses: 1000/' \
-    -e 's/stale_feedback_cycles: [0-9]*/stale_feedback_cycles: 25/' "$config_in" >"$config"
-for want in '^  rate_hz: 250\.0$' '^  priority: 80$' '^    period: 0\.004 ' '^  kp: 200\.0' \
-  '^  velocity_cutoff_hz: 100\.0' \
-  '^  kd: 8\.0' '^    drive_timeout: 1\.0' '^    master_timeout: 1\.0' '^  rpdo_deadline: 1\.0' \
-  '^  max_tracking_error: 0\.010' 'max_consecutive_deadline_misses: 1000' \
-  'stale_feedback_cycles: 25'; do
-  grep -Eq -- "$want" "$config" ||
-    { echo "FAIL: the HIL overlay did not apply /$want/ to $config_in (format changed?)"; exit 1; }
-done
 
 # --- the reference: the same program and configuration in-process (simulated time) ------
 "$dualv" run --config "$config" -p "$program" --variant retimed --no-plots -o "$tmp/ref" \
@@ -123,28 +125,68 @@ stop_bus() {  # stop_bus NAME: ends the emulator (checks its clean exit) and the
   wait "$dump_pid" 2>/dev/null
   dump_pid=
   capture=$(compgen -G "$tmp/$name.dump/candump-*.log" | head -n 1)
-  [[ -s "$capture" ]] || fail "$name: no candump log"
+  [[ -s "$capture" ]] || { fail "$name: no candump log"; capture=''; }
 }
 summary_all() {  # summary_all SUMMARY_CSV: max_ex max_ey max_e rms_e of the retimed `all` row
   awk -F, '$1 == "retimed" && $2 == "all" {print $4, $5, $6, $7}' "$1"
 }
+# stops FAULTS_JSONL: every stopping fault (reaction SS1 or STO) in the fault log, as its text
+# without the reaction ("drive fault drive 3: EMCY 4210h").
+stops() {
+  grep '"event":"fault"' "$1" 2>/dev/null | grep -E '"reaction":"(SS1|STO)"' |
+    sed -nE 's/.*"text":"([^"]*)".*/\1/p' | sed -E 's/ -> [A-Z0-9]+$//'
+}
+# sto_cycle FAULTS_JSONL: the cycle from which the loop sends STO (the first fault with reaction
+# STO, or SS1's "stop reached"); nothing when the fault log has none.
+sto_cycle() {
+  grep -E '"event":"(fault|stop reached)"' "$1" 2>/dev/null | grep '"reaction":"STO"' | head -n 1 |
+    sed -nE 's/^\{"cycle":([0-9]+),.*/\1/p'
+}
+# wire NAME LABEL [ARGS...]: check_paper_wire.py on NAME's capture and run log; with the STO
+# cycle of its fault log when it has one.
+wire() {
+  local name=$1 label=$2 k
+  shift 2
+  [[ -n "${capture:-}" ]] || return 0
+  k=$(sto_cycle "$tmp/$name/faults.jsonl")
+  "$py" "$here/check_paper_wire.py" --config "$config" --run-log "$tmp/$name.run.log" \
+    ${k:+--sto-cycle "$k"} "$@" "$capture" || fail "$label: wire check"
+}
+# report NAME: the run's and the emulator's reports
+report() {
+  grep -E "^(loop:|bus:|  node )|FAILED in|cycle time|lateness" "$tmp/$1.run.log"
+  grep -E "^dualv sim: (t=|stopped|node)" "$tmp/$1.sim.log"
+}
 
 # --- 1 + 2: the paper program over vcan, and its capture ---------------------------------
-start_bus paper
-stdbuf -oL "$dualv" run --can vcan0 --config "$config" -p "$program" --variant retimed \
-  --no-plots -o "$tmp/can" >"$tmp/paper.run.log" 2>&1
-run_rc=$?
-stop_bus paper
-echo "=== paper program over vcan (dualv run exit $run_rc)"
-grep -E "^(loop:|bus:|  node )|FAILED|cycle time|lateness" "$tmp/paper.run.log"
-grep -E "^dualv sim: (stopped|node)" "$tmp/paper.sim.log"
-if [[ $run_rc -ne 0 ]]; then
-  fail "paper: dualv run --can exited $run_rc"
-  show "$tmp/paper.run.log" "$tmp/paper.sim.log"
-else
+completed=0
+notes=()
+for ((attempt = 1; attempt <= attempts && completed == 0; ++attempt)); do
+  name=paper$attempt
+  start_bus "$name"
+  "$dualv" run --can vcan0 --config "$config" -p "$program" --variant retimed \
+    --no-plots -o "$tmp/$name" >"$tmp/$name.run.log" 2>&1
+  run_rc=$?
+  stop_bus "$name"
+  echo "=== paper program over vcan, attempt $attempt (dualv run exit $run_rc)"
+  report "$name"
+  wire "$name" "paper (attempt $attempt)"
+  causes=$(stops "$tmp/$name/faults.jsonl")
+  if [[ $run_rc -eq 0 && -z $causes ]]; then
+    completed=1
+  elif [[ $run_rc -eq 1 && -n $causes ]] && timing_stops_only <<<"$causes"; then
+    notes+=("attempt $attempt: $(grep -m1 -oE "FAILED in .*" "$tmp/$name.run.log"); $(grep -m1 '^loop:' "$tmp/$name.run.log")")
+    echo "note: attempt $attempt ended on the loop's timing watchdogs (guest timing): $(tr '\n' ';' <<<"$causes")"
+  else
+    fail "paper: dualv run --can exited $run_rc, stops: ${causes:-none} (neither completed nor a timing watchdog's stop)"
+    break
+  fi
+  [[ $failed -eq 0 ]] || break
+done
+if [[ $completed -eq 1 ]]; then
   # (no process substitution: the guest has no /dev/fd)
   read -r -a ref <<<"$(summary_all "$tmp/ref/summary.csv")"
-  read -r -a can <<<"$(summary_all "$tmp/can/summary.csv")"
+  read -r -a can <<<"$(summary_all "$tmp/$name/summary.csv")"
   if [[ ${#ref[@]} -ne 4 || ${#can[@]} -ne 4 ]]; then
     fail "paper: no 'retimed,all' row in a summary.csv"
   else
@@ -155,23 +197,18 @@ else
       [[ $verdict == ok ]] || fail "paper: ${names[$k]} ${can[$k]} over vcan, more than 2x the in-process ${ref[$k]}"
     done
   fi
-fi
-if [[ -n "${capture:-}" ]]; then
-  "$py" "$here/check_paper_wire.py" --config "$config" --run-log "$tmp/paper.run.log" "$capture" ||
-    fail "paper: wire check"
+elif [[ $failed -eq 0 ]]; then
+  echo "NOTE (guest timing): the paper program over vcan did not complete in $attempts attempts, each"
+  echo "  ended by the loop's timing watchdogs (the guest did not keep 1 kHz); the tracking comparison"
+  echo "  is not shown here, the wire checks of every attempt passed:"
+  printf '  %s\n' "${notes[@]}"
 fi
 
 # --- 3: foreign frames during a run, then an EMCY ------------------------------------------
-# The foreign frames as soon as the program runs: counted, no crash, the run goes on. Then an
-# EMCY from node 3 (sent with cansend): the defined reaction, STO (safety/fault.hpp).
-start_bus foreign
-stdbuf -oL "$dualv" run --can vcan0 --config "$config" -p "$program" --variant retimed \
-  --no-plots -o "$tmp/foreign" >"$tmp/foreign.run.log" 2>&1 &
-run_pid=$!
-if ! wait_for "$tmp/foreign.run.log" "t = *0\.00 /" 30; then
-  fail "foreign: the program did not start"
-  show "$tmp/foreign.run.log"
-fi
+# The foreign frames as soon as the control loop runs: counted, no crash. Then an EMCY from
+# node 3: the defined reaction, STO (safety/fault.hpp). All from one canplayer process (1 ms
+# apart, the EMCY last): the guest's one CPU spawns a process in tens of ms, and a run the
+# guest's timing stops ends within a few cycles.
 frames=(
   185#0102030405060708   # TPDO1 of node 5: no such drive on this bus (unknown)
   7E5#0400000000000000   # LSS (function code 15, no node): unknown COB-ID
@@ -180,54 +217,87 @@ frames=(
   701#                   # heartbeat of node 1 without its state byte: wrong DLC
   581#8041600043000406   # SDO abort 06040043h from node 1 (no SDO transfer is open)
 )
-for f in "${frames[@]}"; do cansend vcan0 "$f" || fail "foreign: cansend $f"; done
-sleep 0.5
-kill -0 "$run_pid" 2>/dev/null || fail "foreign: dualv run ended after the foreign frames"
-kill -0 "$sim_pid" 2>/dev/null || fail "foreign: dualv sim ended after the foreign frames"
 # EMCY 4210h (excess temperature), error register 08h, from node 3.
-cansend vcan0 083#1042080000000000 || fail "foreign: cansend EMCY"
-stopped=0
-for ((i = 0; i < 600; ++i)); do
-  kill -0 "$run_pid" 2>/dev/null || { stopped=1; break; }
-  sleep 0.05
-done
-if [[ $stopped -eq 0 ]]; then
-  fail "foreign: dualv run still running 30 s after the EMCY"
-  kill -INT "$run_pid" 2>/dev/null
-fi
-wait "$run_pid"
-run_rc=$?
-run_pid=
-stop_bus foreign
-echo "=== foreign frames, then an EMCY from node 3 (dualv run exit $run_rc)"
-grep -E "^(loop:|bus:|  node )|FAILED" "$tmp/foreign.run.log"
-grep -E "^dualv sim: (t=|stopped|node)" "$tmp/foreign.sim.log"
-[[ $run_rc -eq 1 ]] || fail "foreign: dualv run exited $run_rc, expected 1 (stopped by the EMCY)"
-grep -q "safety stop (drive fault)" "$tmp/foreign.run.log" ||
-  fail "foreign: not stopped as a drive fault (safety/fault.hpp: STO)"
-# Counted by the master: 3 unknown, 1 malformed heartbeat, the SDO abort ignored (no
-# transfer open), node 1's short TPDO, node 3's EMCY.
-bus=$(grep -E "^bus: " "$tmp/foreign.run.log")
+for f in "${frames[@]}" 083#1042080000000000; do echo "(0.000000) vcan0 $f"; done >"$tmp/foreign.frames"
 count() { sed -nE "s/.*$1 ([0-9]+).*/\1/p" <<<"$2"; }
-[[ "$(count "unknown frames" "$bus")" == 3 ]] || fail "foreign: unknown frames not counted 3: $bus"
-[[ "$(count "malformed frames" "$bus")" == 1 ]] || fail "foreign: malformed frames not counted 1: $bus"
-[[ "$(count "ignored frames" "$bus")" == 1 ]] || fail "foreign: SDO abort not counted 1: $bus"
-node1=$(grep -E "^  node 1:" "$tmp/foreign.run.log")
-node3=$(grep -E "^  node 3:" "$tmp/foreign.run.log")
-[[ "$(count "malformed" "$node1")" == 1 ]] || fail "foreign: node 1's short TPDO not counted: $node1"
-[[ "$(count "EMCYs" "$node3")" -ge 1 ]] || fail "foreign: node 3's EMCY not counted: $node3"
-# Counted by the emulator too (frames not for its drives), and it did not crash (stop_bus).
-nf=$(sed -nE 's/.* ([0-9]+) frames not for these drives.*/\1/p' "$tmp/foreign.sim.log")
-[[ "${nf:-0}" -ge ${#frames[@]} ]] ||
-  fail "foreign: the emulator counted ${nf:-no} foreign frames (expected >= ${#frames[@]})"
-if [[ -n "${capture:-}" ]]; then
-  "$py" "$here/check_paper_wire.py" --config "$config" --run-log "$tmp/foreign.run.log" \
-    --sto-after 3:4210 "$capture" || fail "foreign: wire check (STO after the EMCY)"
+emcy_shown=0
+enotes=()
+for ((attempt = 1; attempt <= attempts && emcy_shown == 0 && failed == 0; ++attempt)); do
+  name=foreign$attempt
+  start_bus "$name"
+  "$dualv" run --can vcan0 --config "$config" -p "$program" --variant retimed \
+    --no-plots -o "$tmp/$name" >"$tmp/$name.run.log" 2>&1 &
+  run_pid=$!
+  if ! wait_for "$tmp/$name.run.log" "control loop running\|FAILED in" 60; then
+    fail "foreign: the control loop did not start"
+    show "$tmp/$name.run.log"
+  fi
+  canplayer -t -g 1 -I "$tmp/foreign.frames" || fail "foreign: canplayer"
+  kill -0 "$sim_pid" 2>/dev/null || fail "foreign: dualv sim ended after the foreign frames"
+  stopped=0
+  for ((i = 0; i < 600; ++i)); do
+    kill -0 "$run_pid" 2>/dev/null || { stopped=1; break; }
+    sleep 0.05
+  done
+  if [[ $stopped -eq 0 ]]; then
+    fail "foreign: dualv run still running 30 s after the EMCY"
+    kill -INT "$run_pid" 2>/dev/null
+  fi
+  wait "$run_pid"
+  run_rc=$?
+  run_pid=
+  stop_bus "$name"
+  echo "=== foreign frames, then an EMCY from node 3, attempt $attempt (dualv run exit $run_rc)"
+  report "$name"
+  [[ $run_rc -eq 1 ]] || fail "foreign: dualv run exited $run_rc, expected 1 (stopped)"
+  # Counted by the emulator too (frames not for its drives), and it did not crash (stop_bus).
+  nf=$(sed -nE 's/.* ([0-9]+) frames not for these drives.*/\1/p' "$tmp/$name.sim.log")
+  [[ "${nf:-0}" -ge ${#frames[@]} ]] ||
+    fail "foreign: the emulator counted ${nf:-no} foreign frames (expected >= ${#frames[@]})"
+  causes=$(stops "$tmp/$name/faults.jsonl")
+  emcy='drive fault drive 3: EMCY 4210h'
+  if grep -qxF "$emcy" <<<"$causes"; then
+    # Decoded, a drive fault of drive 3 with reaction STO, and the only stop apart from the
+    # timing watchdogs (which may fire in the same cycles).
+    grep '"event":"fault"' "$tmp/$name/faults.jsonl" | grep -F "\"text\":\"$emcy -> STO\"" |
+      grep -q '"cause":"drive fault","reaction":"STO"' ||
+      fail "foreign: EMCY 4210h of node 3 not a drive fault with reaction STO in the fault log"
+    others=$(grep -vxF "$emcy" <<<"$causes")
+    [[ -z $others ]] || timing_stops_only <<<"$others" || fail "foreign: other stops: $causes"
+    # The run read the EMCY, so every foreign frame before it on the bus: counted by the
+    # master (3 unknown, 1 malformed heartbeat, the SDO abort ignored (no transfer open),
+    # node 1's short TPDO). A run a timing watchdog ended before them never read them.
+    bus=$(grep -E "^bus: " "$tmp/$name.run.log")
+    [[ "$(count "unknown frames" "$bus")" == 3 ]] || fail "foreign: unknown frames not counted 3: $bus"
+    [[ "$(count "malformed frames" "$bus")" == 1 ]] || fail "foreign: malformed frames not counted 1: $bus"
+    [[ "$(count "ignored frames" "$bus")" == 1 ]] || fail "foreign: SDO abort not counted 1: $bus"
+    node1=$(grep -E "^  node 1:" "$tmp/$name.run.log")
+    [[ "$(count "malformed" "$node1")" == 1 ]] || fail "foreign: node 1's short TPDO not counted: $node1"
+    node3=$(grep -E "^  node 3:" "$tmp/$name.run.log")
+    [[ "$(count "EMCYs" "$node3")" -ge 1 ]] || fail "foreign: node 3's EMCY not counted: $node3"
+    wire "$name" "foreign (STO after the EMCY)" --sto-after 3:4210
+    emcy_shown=1
+  elif [[ -n $causes ]] && timing_stops_only <<<"$causes"; then
+    wire "$name" "foreign (attempt $attempt)"
+    enotes+=("attempt $attempt: $(grep -m1 -oE "FAILED in .*" "$tmp/$name.run.log"); $(grep -m1 '^loop:' "$tmp/$name.run.log")")
+    echo "note: attempt $attempt ended on the loop's timing watchdogs before the EMCY: $(tr '\n' ';' <<<"$causes")"
+  else
+    fail "foreign: stops: ${causes:-none} (neither the EMCY's STO nor a timing watchdog's)"
+  fi
+done
+if [[ $emcy_shown -eq 0 && $failed -eq 0 ]]; then
+  echo "NOTE (guest timing): the EMCY's STO and the master's counts not shown: every one of $attempts"
+  echo "  runs ended on the loop's timing watchdogs before the frames came (the emulator counted them,"
+  echo "  every capture checked):"
+  printf '  %s\n' "${enotes[@]}"
 fi
 
 if [[ $failed -ne 0 ]]; then
-  show "$tmp/foreign.run.log" "$tmp/foreign.sim.log"
+  show "$tmp/$name.run.log" "$tmp/$name.sim.log"
   exit 1
 fi
-echo "paper HIL: paper program within 2x of in-process; wire: SYNCs, RPDOs, torque limit; foreign frames counted; EMCY -> STO: ok"
+echo "paper HIL (shipped configuration): tracking within 2x of in-process:" \
+  "$([[ $completed -eq 1 ]] && echo shown || echo "NOTE above");" \
+  "wire: SYNCs, RPDOs, torque limit, STO: ok; foreign frames counted by the emulator;" \
+  "by the master and EMCY -> STO: $([[ $emcy_shown -eq 1 ]] && echo shown || echo "NOTE above")"
 exit 0
