@@ -13,6 +13,9 @@
 #   --keep-going  do not stop a target at its first finding (libFuzzer -fork=1
 #              -ignore_crashes=1): a campaign goes on past a known, not yet fixed finding
 #   --jobs N   compile with N jobs (default: nproc)
+#   --build DIR  a build folder configured with clang and -DDUALV_FUZZ=ON already (scripts/test.sh's
+#              build/sanitize, whose tests ran under the same ASan + UBSan): only the targets are
+#              built there (default: build/fuzz, configured here)
 #   TARGET     some targets only (default: all), e.g. firmware_if_decoders sdo_client
 # New inputs that add coverage go to build/fuzz/corpus/<target>/ (kept between runs, so a
 # campaign resumes where the last one stopped); fuzz/corpus/ is only read.
@@ -25,11 +28,13 @@ runs=""
 keep_going=0
 jobs=$(nproc)
 targets=()
+build=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --time) time_s="$2"; shift 2 ;;
     --runs) runs="$2"; shift 2 ;;
     --jobs) jobs="$2"; shift 2 ;;
+    --build) build="$2"; shift 2 ;;
     --keep-going) keep_going=1; shift ;;
     -h|--help) sed -n '2,18p' "$0"; exit 0 ;;
     -*) echo "fuzz.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
@@ -43,11 +48,16 @@ for t in "${targets[@]}"; do
 done
 
 bash scripts/install-deps.sh
-build=build/fuzz
-launcher=()
-command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
-CC=clang CXX=clang++ cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDUALV_FUZZ=ON \
-  -DDUALV_BUILD_TESTS=OFF -DDUALV_BUILD_BENCH=OFF "${launcher[@]}" >/dev/null
+if [ -z "$build" ]; then
+  build=build/fuzz
+  launcher=()
+  command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+  CC=clang CXX=clang++ cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDUALV_FUZZ=ON \
+    -DDUALV_BUILD_TESTS=OFF -DDUALV_BUILD_BENCH=OFF "${launcher[@]}" >/dev/null
+elif ! grep -q '^DUALV_FUZZ:BOOL=ON' "$build/CMakeCache.txt" 2>/dev/null; then
+  echo "fuzz.sh: $build is not a build configured with -DDUALV_FUZZ=ON (clang)" >&2
+  exit 2
+fi
 cmake --build "$build" -j"$jobs" --target "${targets[@]/%/_fuzz}"
 
 # Per-target options: the largest input (the configuration seed is ~11 kB) and the time one
