@@ -12,7 +12,7 @@
 #              --time too, whichever comes first
 #   --keep-going  do not stop a target at its first finding (libFuzzer -fork=1
 #              -ignore_crashes=1): a campaign goes on past a known, not yet fixed finding
-#   --jobs N   compile with N jobs (default: nproc)
+#   --jobs N   compile with N jobs and run N targets at a time (default: nproc)
 #   --build DIR  a build folder configured with clang and -DDUALV_FUZZ=ON already (scripts/test.sh's
 #              build/sanitize, whose tests ran under the same ASan + UBSan): only the targets are
 #              built there (default: build/fuzz, configured here)
@@ -64,9 +64,10 @@ cmake --build "$build" -j"$jobs" --target "${targets[@]/%/_fuzz}"
 # input may take before libFuzzer calls it a hang (generous: a loaded 2-core machine is slow;
 # a real hang runs forever).
 declare -A MAX_LEN=([robot_config]=16384 [program]=4096 [bus_attack]=2048 [command_verifier]=2048)
-failed=0
-summary=()
-for t in "${targets[@]}"; do
+# fuzz_one TARGET: runs it; its summary line and verdict go to $build/logs/TARGET.{summary,failed}
+# (the targets run side by side, one per job: each libFuzzer process is single-threaded).
+fuzz_one() {
+  local t=$1 work findings log limit opts start status secs execs cov n
   work="$build/corpus/$t"
   findings="$build/findings/$t"
   log="$build/logs/$t.log"
@@ -89,13 +90,32 @@ for t in "${targets[@]}"; do
   [ -n "$execs" ] || execs=$(grep -oE '^#[0-9]+' "$log" | tail -1 | tr -d '#' || true)
   cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | cut -d' ' -f2 || true)
   n=$(find "$findings" -type f | wc -l)
-  line=$(printf '%-22s %12s execs %6s s  coverage %6s  findings %s' "$t" "${execs:-?}" "$secs" "${cov:-?}" "$n")
-  summary+=("$line")
+  printf '%-22s %12s execs %6s s  coverage %6s  findings %s\n' "$t" "${execs:-?}" "$secs" \
+    "${cov:-?}" "$n" >"$build/logs/$t.summary"
   if [ "$status" -ne 0 ] || [ "$n" -ne 0 ]; then
-    failed=1
+    echo 1 >"$build/logs/$t.failed"
     echo "fuzz.sh: $t FAILED (exit $status); the finding:" >&2
     grep -E 'ERROR|runtime error|SUMMARY|Test unit written' "$log" | head -20 >&2 || tail -30 "$log" >&2
+  else
+    echo 0 >"$build/logs/$t.failed"
   fi
+}
+running=0
+for t in "${targets[@]}"; do
+  rm -f "$build/logs/$t.summary" "$build/logs/$t.failed"
+  fuzz_one "$t" &
+  running=$((running + 1))
+  if [ "$running" -ge "$jobs" ]; then
+    wait -n || true
+    running=$((running - 1))
+  fi
+done
+wait
+failed=0
+summary=()
+for t in "${targets[@]}"; do
+  summary+=("$(cat "$build/logs/$t.summary" 2>/dev/null || echo "$t: no result")")
+  [ "$(cat "$build/logs/$t.failed" 2>/dev/null || echo 1)" = 0 ] || failed=1
 done
 echo "== fuzz summary =="
 printf '%s\n' "${summary[@]}"
