@@ -56,6 +56,13 @@ timing_stops() {
   grep '"event":"fault"' | grep -qE '"cause":"(consecutive deadline misses|stale feedback)","reaction":"STO"'
 }
 
+# stop_causes: the stopping faults (reaction SS1 or STO) of the faults.jsonl lines on stdin, one a
+# line: its "text" without the " -> REACTION" (e.g. "stale feedback drive 1: 3 (limit 3)").
+stop_causes() {
+  grep '"event":"fault"' | grep -E '"reaction":"(SS1|STO)"' |
+    sed -nE 's/.*"text":"([^"]*)".*/\1/p' | sed -E 's/ -> [A-Z0-9]+$//'
+}
+
 # timing_stops_only: 0 when the stopping faults on stdin (one a line: a faults.jsonl "text"
 # without its " -> STO", e.g. "stale feedback drive 1: 3 (limit 3)") are all stops by the
 # loop's own timing watchdogs (safety/fault.hpp: consecutive deadline misses, stale feedback,

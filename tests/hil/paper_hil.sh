@@ -132,10 +132,7 @@ summary_all() {  # summary_all SUMMARY_CSV: max_ex max_ey max_e rms_e of the ret
 }
 # stops FAULTS_JSONL: every stopping fault (reaction SS1 or STO) in the fault log, as its text
 # without the reaction ("drive fault drive 3: EMCY 4210h").
-stops() {
-  grep '"event":"fault"' "$1" 2>/dev/null | grep -E '"reaction":"(SS1|STO)"' |
-    sed -nE 's/.*"text":"([^"]*)".*/\1/p' | sed -E 's/ -> [A-Z0-9]+$//'
-}
+stops() { stop_causes 2>/dev/null <"$1"; }  # hil_lib.sh
 # sto_cycle FAULTS_JSONL: the cycle from which the loop sends STO (the first fault with reaction
 # STO, or SS1's "stop reached"); nothing when the fault log has none.
 sto_cycle() {

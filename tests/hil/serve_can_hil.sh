@@ -191,12 +191,7 @@ done
 # Timing-watchdog stops (what a guest freeze causes), not what this test checks: see above.
 timing_only() {  # timing_only FIRST_LINE: 0 when every stopping fault from that line of
   # faults.jsonl on is a timing watchdog's
-  local causes
-  causes=$(tail -n "+$1" "$tmp/out/faults.jsonl" 2>/dev/null | grep '"event":"fault"' |
-    grep -E '"reaction":"(SS1|STO)"' | sed -nE 's/.*"text":"([^"]*)".*/\1/p')
-  [[ -n "$causes" ]] || return 1
-  ! grep -vE '^(consecutive deadline misses|stale feedback|drive lost|drive fault drive [0-9]+: EMCY 8(250|130)h)' \
-    <<<"$causes" | grep -q .
+  tail -n "+$1" "$tmp/out/faults.jsonl" 2>/dev/null | stop_causes | timing_stops_only  # hil_lib.sh
 }
 faults_lines() { [[ -f "$tmp/out/faults.jsonl" ]] && wc -l <"$tmp/out/faults.jsonl" || echo 0; }
 last_reset_f=1  # the first line of faults.jsonl after the test's last signed reset
