@@ -17,7 +17,8 @@ StateEstimator::StateEstimator(const model::Model& model, const EstimatorConfig&
 }
 
 void StateEstimator::reset(const model::JointVector& q, const model::Pose& X) noexcept {
-  q_prev_ = q;
+  q_last_ = q;
+  stale_for_ = model::JointVector::Zero(model_->n);
   est_.q = q;
   est_.q_dot = model::JointVector::Zero(model_->n);
   est_.X = X;
@@ -29,20 +30,28 @@ void StateEstimator::reset(const model::JointVector& q, const model::Pose& X) no
     est_.model = &data_;
 }
 
-EstimateStatus StateEstimator::update(const model::JointVector& q_measured) noexcept {
+EstimateStatus StateEstimator::update(const model::JointVector& q_measured,
+                                      std::uint32_t fresh_mask) noexcept {
   if (q_measured.size() != model_->n || !q_measured.allFinite())
     return est_.status = EstimateStatus::kInvalidInput;
   for (int i = 0; i < model_->n; ++i) {
-    const double raw = (q_measured[i] - q_prev_[i]) / period_;
-    est_.q_dot[i] += alpha_ * (raw - est_.q_dot[i]);
+    if ((fresh_mask >> i & 1U) != 0) {
+      // Over the cycles since the last fresh position (one when none was lost).
+      const double raw = (q_measured[i] - q_last_[i]) / ((stale_for_[i] + 1.0) * period_);
+      est_.q_dot[i] += alpha_ * (raw - est_.q_dot[i]);
+      q_last_[i] = q_measured[i];
+      stale_for_[i] = 0.0;
+      est_.q[i] = q_measured[i];
+    } else {
+      stale_for_[i] += 1.0;
+      est_.q[i] = q_last_[i] + est_.q_dot[i] * stale_for_[i] * period_;
+    }
   }
-  q_prev_ = q_measured;
-  est_.q = q_measured;
   model::Pose X;
   // Seeded with a constant-velocity prediction of the pose: Gauss-Newton then needs one
   // step less than from the previous pose (the FK is most of the estimator's cost).
   const model::Pose seed = est_.X + est_.X_dot * period_;
-  const model::FkResult fk = model::forward_kinematics(*model_, data_, q_measured, seed, X);
+  const model::FkResult fk = model::forward_kinematics(*model_, data_, est_.q, seed, X);
   est_.fk_iterations = fk.iterations;
   est_.fk_residual = fk.residual;
   est_.model = nullptr;

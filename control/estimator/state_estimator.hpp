@@ -2,6 +2,13 @@
 // Joint and plate state from encoder positions (the paper measures no velocities, eq. 17):
 //   q_dot: backward difference of q, then a first-order low-pass at cutoff f_c;
 //   X:     forward kinematics seeded with the previous X; X_dot = Jm^+ q_dot.
+// A cycle without a fresh position for a joint (drivers::DriveFeedback::fresh false: its TPDO
+// did not arrive, drivers/actuator_set.hpp) extrapolates that joint from its last fresh
+// position at its estimated velocity and holds the velocity; the next fresh position's
+// difference is taken over the cycles since the last one. Holding the stale position instead
+// reads as the joint stopping and then jumping: at the shipped kp (7000 N m/rad) one lost TPDO
+// at 3 rad/s is a ~20 N m torque step. The safety layer bounds how long this goes on
+// (safety.watchdogs.stale_feedback_cycles, safety/safety_filter.cpp).
 //
 // Phase lag of the velocity estimate at frequency f (sample period dt):
 //   atan(f / f_c) from the low-pass + pi f dt from the backward difference (half a sample);
@@ -43,7 +50,9 @@ class StateEstimator {
 
   // Starts from a known pose (e.g. after forward kinematics at start-up): no velocity transient.
   void reset(const model::JointVector& q, const model::Pose& X) noexcept;
-  EstimateStatus update(const model::JointVector& q_measured) noexcept;
+  // fresh_mask: bit i set when joint i's position is new this cycle (default: all).
+  EstimateStatus update(const model::JointVector& q_measured,
+                        std::uint32_t fresh_mask = ~std::uint32_t{0}) noexcept;
   const StateEstimate& estimate() const noexcept { return est_; }
   double alpha() const noexcept { return alpha_; }
 
@@ -51,8 +60,9 @@ class StateEstimator {
   const model::Model* model_;
   model::Data data_;
   double period_;
-  double alpha_;  // low-pass smoothing factor dt / (dt + 1 / (2 pi f_c))
-  model::JointVector q_prev_;
+  double alpha_;                  // low-pass smoothing factor dt / (dt + 1 / (2 pi f_c))
+  model::JointVector q_last_;     // each joint's last fresh position
+  model::JointVector stale_for_;  // cycles since it (0: fresh this cycle)
   StateEstimate est_;
 };
 

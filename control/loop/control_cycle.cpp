@@ -169,11 +169,15 @@ CycleStatus ControlCycle::step(drivers::ActuatorSet& io, CycleRecord& rec) noexc
   rec.command.request = drivers::DriveRequest::kHold;
 
   const drivers::IoStatus io_status = io.read(rec.feedback);
-  for (int i = 0; i < n; ++i) q_meas_[i] = rec.feedback.drive[i].position;
+  std::uint32_t fresh = 0;  // joints whose position is new this cycle (the estimator's input)
+  for (int i = 0; i < n; ++i) {
+    q_meas_[i] = rec.feedback.drive[i].position;
+    if (rec.feedback.drive[i].fresh) fresh |= 1U << i;
+  }
   if (io_status == drivers::IoStatus::kBusError) rec.status = CycleStatus::kIoError;
   // The first cycles after start-up find the pose from home (the estimator tracks it after).
   if (!seeded_ && io_status != drivers::IoStatus::kNotReady) seeded_ = seed(q_meas_);
-  if ((!seeded_ || estimator_.update(q_meas_) != EstimateStatus::kOk) &&
+  if ((!seeded_ || estimator_.update(q_meas_, fresh) != EstimateStatus::kOk) &&
       rec.status == CycleStatus::kOk)
     rec.status = CycleStatus::kEstimateFailed;
   rec.est = estimator_.estimate();
