@@ -2,7 +2,9 @@
 # HIL: the safety layer on real SocketCAN (vcan0, through run_in_vcan.sh). Two processes, as
 # on a real machine: `dualv sim --can vcan0` (four CiA 402 drives + the mechanism, with an
 # e-stop button and fault injection) and the controller `dualv selftest --can vcan0`
-# (the control cycle with the safety filter). `candump -L` captures the wire; every case is
+# (the control cycle with the safety filter). can_capture (tests/hil/can_capture.cpp: candump's
+# log format, error frames included, at a fraction of candump's cost in the guest) captures the
+# wire; every case is
 # checked on the captured frames afterwards (check_wire.py), not on internal variables:
 #   1. drive fault (EMCY 2310h from the emulator)  -> STO: torque 0 on the wire at once
 #   2. hardwired e-stop button (60FDh)              -> STO
@@ -28,14 +30,17 @@
 #                    drives stop on their own (EMCY from each, on vcan1)
 # and in every case no target torque above safety.torque.max in any captured RPDO.
 # Timing in the UML guest is coarse: behaviour and ordering are asserted, never latency.
-# Usage: safety_hil.sh DUALV_BINARY CONFIG_YAML [--gateway CAN_FAULT_GATEWAY] [CASE...]
+# Usage: safety_hil.sh DUALV_BINARY CONFIG_YAML --capture CAN_CAPTURE [--gateway CAN_FAULT_GATEWAY]
+#        [CASE...]
 # (default cases: 1-5; with --gateway: 6-11). KEEP=1 keeps the work folder.
 set -u
 . "$(dirname "$0")/hil_lib.sh"
-usage="usage: safety_hil.sh DUALV_BINARY CONFIG_YAML [--gateway CAN_FAULT_GATEWAY] [CASE...]"
+usage="usage: safety_hil.sh DUALV_BINARY CONFIG_YAML --capture CAN_CAPTURE [--gateway CAN_FAULT_GATEWAY] [CASE...]"
 dualv=${1:?$usage}
 config_in=${2:?$usage}
-shift 2
+[[ ${3:-} == --capture ]] || { echo "$usage"; exit 2; }
+capture=${4:?$usage}
+shift 4
 gateway=
 if [[ ${1:-} == --gateway ]]; then
   gateway=${2:?$usage}
@@ -115,7 +120,7 @@ YAML
 # Gateway cases, as paper_hil.sh runs its processes: SCHED_FIFO where permitted (root in the
 # guest): the gateway (90) forwards every frame it is not told to break at once, the
 # emulator (85) answers each SYNC before the controller's (80) next cycle, as drive hardware
-# does, and candump (95, large buffer) loses nothing. bg_rt PRIO CMD... & (exec: $! is CMD).
+# does, and the capture (95, 8 MB buffer) loses nothing. bg_rt PRIO CMD... & (exec: $! is CMD).
 fifo_ok=0
 if [[ -n $gateway && $(id -u) -eq 0 ]] && command -v chrt >/dev/null && chrt -f 90 true 2>/dev/null; then
   fifo_ok=1
@@ -140,15 +145,18 @@ run_case() {
   local dump=$tmp/$name.dump.log simlog=$tmp/$name.sim.log ctl=$tmp/$name.ctl.log
   local sim_if=vcan0
   echo "$name" >"$tmp/current"
-  # Every frame plus error frames (#error mask: the bus-off case; -e would not work with -L).
-  bg_rt 95 candump -L -r 8388608 'vcan0,0:0,#FFFFFFFF' >"$dump" 2>&1 &
+  # Every frame plus error frames (the bus-off case).
+  bg_rt 95 "$capture" vcan0 "$dump" --errors 2>"$dump.err" &
   dump_pid=$!
+  wait_for "$dump.err" "capturing" 5 || { fail "$name: can_capture did not start"; return; }
   if [[ -n $gateway ]]; then
     sim_if=vcan1
     # The emulator's free run off: a guest frozen as a whole by host load is no dead master.
     sim_args+=(--free-run-after 0)
-    bg_rt 95 candump -L -r 8388608 vcan1 >"$tmp/$name.drives.dump.log" 2>&1 &
+    bg_rt 95 "$capture" vcan1 "$tmp/$name.drives.dump.log" 2>"$tmp/$name.drives.dump.err" &
     dump1_pid=$!
+    wait_for "$tmp/$name.drives.dump.err" "capturing" 5 ||
+      { fail "$name: can_capture (vcan1) did not start"; return; }
     local rule_args=()
     for r in "${gw_rules[@]}"; do rule_args+=(--rule "$r"); done
     bg_rt 90 "$gateway" vcan0 vcan1 "${rule_args[@]}" >"$tmp/$name.gw.log" 2>&1 &
@@ -185,6 +193,9 @@ finish_case() {  # finish_case NAME EXPECTED_SELFTEST_EXIT [SECONDS_TO_LET_THE_D
     wait "$p" 2>/dev/null
   done
   dump_pid= dump1_pid=
+  for e in "$tmp/$name".dump.err "$tmp/$name".drives.dump.err; do
+    [[ ! -f $e ]] || grep -q " 0 lost" "$e" || fail "$name: the capture lost frames: $(tail -n 1 "$e")"
+  done
   echo "=== $name (selftest exit $rc)"
   cat "$tmp/$name.ctl.log"
   cat "$tmp/$name.faults.log" 2>/dev/null
