@@ -222,6 +222,23 @@ refused_by_timing() {
   signed_reset
   reset_accepted || fail "$1: reset after a timing stop"
 }
+# started_or_refused STEP ATTEMPT PATTERN WHAT: a signed start of WHAT; 0 once the service's log
+# has a new line matching PATTERN (it started), 1 when the service refused it after a timing stop
+# while idle (refused_by_timing has reset: the caller retries); a failure when neither came.
+started_or_refused() {
+  local starts refused
+  starts=$(count "$3") refused=$(count "start of .* refused")
+  signed start "$4"
+  for ((w = 0; w < 100; ++w)); do
+    [[ $(count "$3") -gt $starts ]] && return 0
+    if [[ $(count "start of .* refused") -gt $refused ]]; then
+      refused_by_timing "$1" "$2"
+      return 1
+    fi
+    sleep 0.2
+  done
+  fail "$1: the signed start of $4 did not start"
+}
 # run_paper STEP: a signed start of the program until it completes (timing-only stops and
 # starts refused after a timing-only stop retried, 3 attempts; then a NOTE)
 run_paper() {
@@ -295,21 +312,11 @@ sleep 1
 f3=$(($(faults_lines) + 1))
 streamed=0
 for attempt in 1 2 3; do
-  starts3=$(count "starting stream") refused3=$(count "start of .* refused")
-  signed start stream
-  for ((w = 0; w < 100; ++w)); do
-    [[ $(count "starting stream") -gt $starts3 ]] && break
-    [[ $(count "start of .* refused") -gt $refused3 ]] && break
-    sleep 0.2
-  done
-  if [[ $(count "start of .* refused") -gt $refused3 ]]; then
-    refused_by_timing "step 3" "$attempt"
-    f3=$(($(faults_lines) + 1))
-    continue
+  if started_or_refused "step 3" "$attempt" "starting stream" stream; then
+    streamed=1
+    break
   fi
-  [[ $w -lt 100 ]] || fail "step 3: the signed 'start stream' did not start a stream"
-  streamed=1
-  break
+  f3=$(($(faults_lines) + 1))
 done
 if [[ $streamed -eq 0 ]]; then
   echo "NOTE (guest timing): step 3: no stream started in 3 attempts (each refused after a" \
@@ -348,15 +355,7 @@ wait_count "reset \(key lab1\)" $((resets4 + 1)) 20 || fail "step 4: the signed 
 # 5. An e-stop while the program runs: SS1, then STO.
 for attempt in 1 2 3; do
   stopped5=$(count "$pname STOPPED") done5=$(count "$pname done") f5=$(($(faults_lines) + 1))
-  starts5=$(count "^dualv run: starting .*$pname") refused5=$(count "start of .* refused")
-  signed start "$program"
-  for ((w = 0; w < 100; ++w)); do
-    [[ $(count "^dualv run: starting .*$pname") -gt $starts5 ]] && break
-    [[ $(count "start of .* refused") -gt $refused5 ]] && break
-    sleep 0.2
-  done
-  if [[ $(count "start of .* refused") -gt $refused5 ]]; then
-    refused_by_timing "step 5" "$attempt"
+  if ! started_or_refused "step 5" "$attempt" "^dualv run: starting .*$pname" "$program"; then
     if [[ $attempt -eq 3 ]]; then
       echo "NOTE (guest timing): step 5: no start in 3 attempts (each refused after a timing" \
         "watchdog's stop while idle; their stops are checked on the wire)"
@@ -365,7 +364,6 @@ for attempt in 1 2 3; do
     fi
     continue
   fi
-  [[ $w -lt 100 ]] || fail "step 5: the program did not start"
   sleep 1.5
   "$dualv" estop --lcm "$url" >>"$tmp/commands.log" 2>&1
   wait_count "$pname (done|STOPPED)" $((stopped5 + done5 + 1)) 60 || fail "step 5: no end after the e-stop"
