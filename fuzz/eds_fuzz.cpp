@@ -21,6 +21,7 @@
 #include <exception>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "drivers/canopen/eds_check.hpp"
 #include "drivers/canopen_config.hpp"
@@ -42,16 +43,27 @@ std::string_view trimmed(std::string_view s) {
   return s;
 }
 
-// Line `n` (1-based) of `text`, without its line ending; "" past the end.
-std::string_view line_of(std::string_view text, int n) {
-  std::size_t start = 0;
-  for (int i = 1; i < n; ++i) {
-    const std::size_t nl = text.find('\n', start);
-    if (nl == std::string_view::npos) return {};
-    start = nl + 1;
+// The lines of `text`: where each starts, so line n (1-based) is found without scanning the
+// text again for every object (the scan per object made a large input quadratic).
+class Lines {
+ public:
+  explicit Lines(std::string_view text) : text_(text) {
+    starts_.push_back(0);
+    for (std::size_t i = 0; i < text.size(); ++i)
+      if (text[i] == '\n') starts_.push_back(i + 1);
   }
-  return trimmed(text.substr(start, text.find('\n', start) - start));
-}
+  int count() const { return static_cast<int>(starts_.size()); }
+  // Line `n` (1-based), without its line ending and trimmed; "" past the end.
+  std::string_view line(int n) const {
+    if (n < 1 || n > count()) return {};
+    const std::size_t start = starts_[static_cast<std::size_t>(n - 1)];
+    return trimmed(text_.substr(start, text_.find('\n', start) - start));
+  }
+
+ private:
+  std::string_view text_;
+  std::vector<std::size_t> starts_;
+};
 
 // The index of a section header "[IIII]" (hex), or -1.
 long section_index(std::string_view l) {
@@ -60,10 +72,6 @@ long section_index(std::string_view l) {
   if (hex.empty() || hex.find_first_not_of("0123456789abcdefABCDEF") != std::string::npos)
     return -1;
   return hex.size() > 8 ? -1 : static_cast<long>(std::strtoul(hex.c_str(), nullptr, 16));
-}
-
-int lines_in(std::string_view text) {
-  return 1 + static_cast<int>(std::count(text.begin(), text.end(), '\n'));
 }
 
 const dualv::drivers::CanConfig& shipped_can() {
@@ -76,12 +84,13 @@ const dualv::drivers::CanConfig& shipped_can() {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);
+  const Lines lines(text);
   eds::Eds e;
   try {
     e = eds::parse_eds(text, "fuzz.eds");
   } catch (const eds::EdsError& x) {
     FUZZ_CHECK(x.file() == "fuzz.eds");
-    FUZZ_CHECK(x.line() >= 0 && x.line() <= lines_in(text) + 1);
+    FUZZ_CHECK(x.line() >= 0 && x.line() <= lines.count() + 1);
     FUZZ_CHECK(std::string_view(x.what()).substr(0, 9) == "fuzz.eds:");
     return 0;
   }
@@ -90,7 +99,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   for (const eds::EdsObject& o : e.objects) {
     FUZZ_CHECK(static_cast<long>(o.index) > previous);
     previous = o.index;
-    FUZZ_CHECK(section_index(line_of(text, o.line)) == static_cast<long>(o.index));
+    FUZZ_CHECK(section_index(lines.line(o.line)) == static_cast<long>(o.index));
     FUZZ_CHECK(e.object(o.index) == &o);
     int listed = 0;
     for (const auto* list : {&e.mandatory, &e.optional, &e.manufacturer})
@@ -105,7 +114,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       FUZZ_CHECK(x.index == o.index && static_cast<int>(x.subindex) > sub);
       sub = x.subindex;
       FUZZ_CHECK(e.entry(x.index, x.subindex) == &x);
-      FUZZ_CHECK(x.line >= 1 && x.line <= lines_in(text));
+      FUZZ_CHECK(x.line >= 1 && x.line <= lines.count());
       const auto t = x.type();
       const auto v = eds::default_value(x, 1);
       if (t && v && fw::size_of(*t) < 4) FUZZ_CHECK(*v >> (8 * fw::size_of(*t)) == 0);
