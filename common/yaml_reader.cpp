@@ -192,20 +192,27 @@ std::string YamlReader::key_path(const std::string& key) const {
 
 void YamlReader::problem(const std::string& message) { problems_->push_back(message); }
 
+// One look-up per key (yaml-cpp scans the map's keys for each): the value, or nothing when
+// node_ is not a map.
+std::optional<YAML::Node> YamlReader::lookup(const std::string& key) const {
+  if (!node_.IsMap()) return std::nullopt;
+  const YAML::Node& map = node_;  // const lookup: never inserts the key
+  return map[key];
+}
+
 bool YamlReader::has(const std::string& key) const {
-  return node_.IsMap() && node_[key].IsDefined() && !node_[key].IsNull();
+  const auto v = lookup(key);
+  return v && v->IsDefined() && !v->IsNull();
 }
 
 std::optional<YAML::Node> YamlReader::get(const std::string& key, bool required) {
   read_keys_.push_back(key);
-  if (node_.IsMap()) {
-    const YAML::Node& map = node_;
-    if (map[key].IsDefined() && map[key].IsNull()) {
-      problem(fmt::format("{}: no value (empty or ~): give a value", key_path(key)));
-      return std::nullopt;
-    }
+  const std::optional<YAML::Node> v = lookup(key);
+  if (v && v->IsDefined() && v->IsNull()) {
+    problem(fmt::format("{}: no value (empty or ~): give a value", key_path(key)));
+    return std::nullopt;
   }
-  if (!has(key)) {
+  if (!(v && v->IsDefined())) {
     if (complete_file && !required && valid())
       problem(fmt::format(
           "{}: missing (a complete configuration gives every key; see config/dualv.yaml)",
@@ -214,8 +221,7 @@ std::optional<YAML::Node> YamlReader::get(const std::string& key, bool required)
       problem(fmt::format("{}: missing", key_path(key)));
     return std::nullopt;
   }
-  const YAML::Node& map = node_;  // const lookup: never inserts the key
-  return map[key];
+  return v;
 }
 
 double YamlReader::number(const std::string& key, std::optional<double> fallback) {

@@ -76,6 +76,7 @@ class YamlReader {
 
  private:
   std::optional<YAML::Node> get(const std::string& key, bool required);
+  std::optional<YAML::Node> lookup(const std::string& key) const;
   YAML::Node node_;
   std::string path_;
   std::vector<std::string>* problems_;

@@ -69,7 +69,15 @@ class ObjectDictionary {
     std::uint32_t value = 0;
     std::uint32_t initial = 0;
   };
+  // (index << 8 | subindex) << 8 | slot of every entry, ascending: find() and has_index()
+  // search it in log2(capacity) steps instead of scanning the slots (the emulator looks
+  // entries up for every SDO request and every PDO record rebuild).
+  static_assert(kDictionaryCapacity <= 256, "a slot must fit in the key's low byte");
+  static constexpr std::uint32_t key_of(std::uint16_t index, std::uint8_t subindex) noexcept {
+    return (static_cast<std::uint32_t>(index) << 16) | (static_cast<std::uint32_t>(subindex) << 8);
+  }
   std::array<Slot, kDictionaryCapacity> slots_{};
+  std::array<std::uint32_t, kDictionaryCapacity> sorted_{};
   std::size_t count_ = 0;
   std::vector<std::uint16_t> absent_;
 };

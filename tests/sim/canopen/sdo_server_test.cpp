@@ -7,6 +7,8 @@
 
 #include "tests/sim/canopen/frame_text.hpp"
 
+#include <algorithm>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -144,6 +146,37 @@ TEST(ObjectDictionaryPart, AbsentObjectsAndReset) {
   EXPECT_EQ(od.u(s), 3u);
   EXPECT_EQ(od.u(-1), 0u);
   EXPECT_THROW(od.add(fw::od::kAbortConnectionOption, 0), std::logic_error);
+}
+
+// find() and has_index() search a sorted key table (sim/canopen/object_dictionary.hpp): every
+// entry of firmware_if, added in reverse order, is found at its own slot, and only those.
+TEST(ObjectDictionaryPart, FindsEveryEntryWhateverTheOrderAdded) {
+  ObjectDictionary od;
+  std::vector<int> slots;
+  for (auto it = std::rbegin(fw::od::kAll); it != std::rend(fw::od::kAll); ++it)
+    slots.push_back(od.add(*it, 0));
+  ASSERT_EQ(od.size(), std::size(fw::od::kAll));
+  std::size_t k = slots.size();
+  for (const fw::OdEntry& e : fw::od::kAll) {
+    const int slot = slots[--k];
+    EXPECT_EQ(slot, static_cast<int>(k));  // added in reverse: slots count down
+    EXPECT_EQ(od.find(e), slot) << std::hex << e.index << "sub" << int{e.subindex};
+    EXPECT_EQ(od.entry(slot).index, e.index);
+    EXPECT_EQ(od.entry(slot).subindex, e.subindex);
+    EXPECT_TRUE(od.has_index(e.index));
+  }
+  for (const fw::OdEntry& e : fw::od::kAll) {
+    const bool sub_listed =
+        std::any_of(std::begin(fw::od::kAll), std::end(fw::od::kAll), [&](const fw::OdEntry& o) {
+          return o.index == e.index && o.subindex == static_cast<std::uint8_t>(e.subindex + 1);
+        });
+    if (!sub_listed) EXPECT_EQ(od.find(e.index, static_cast<std::uint8_t>(e.subindex + 1)), -1);
+  }
+  EXPECT_EQ(od.find(0x0000, 0), -1);
+  EXPECT_EQ(od.find(0xFFFF, 0xFF), -1);
+  EXPECT_FALSE(od.has_index(0x0000));
+  EXPECT_FALSE(od.has_index(0xFFFF));
+  EXPECT_THROW(od.add(fw::od::kAll[0], 0), std::logic_error);
 }
 
 }  // namespace
