@@ -170,7 +170,9 @@ TEST(ObjectDictionaryPart, FindsEveryEntryWhateverTheOrderAdded) {
         std::any_of(std::begin(fw::od::kAll), std::end(fw::od::kAll), [&](const fw::OdEntry& o) {
           return o.index == e.index && o.subindex == static_cast<std::uint8_t>(e.subindex + 1);
         });
-    if (!sub_listed) EXPECT_EQ(od.find(e.index, static_cast<std::uint8_t>(e.subindex + 1)), -1);
+    if (!sub_listed) {
+      EXPECT_EQ(od.find(e.index, static_cast<std::uint8_t>(e.subindex + 1)), -1);
+    }
   }
   EXPECT_EQ(od.find(0x0000, 0), -1);
   EXPECT_EQ(od.find(0xFFFF, 0xFF), -1);
