@@ -304,8 +304,14 @@ Outcome run_scenario(const RobotConfig& cfg, const trajectory::Program& program,
   for (int k = 0; k < 60000; ++k) {
     if (run.step() != control::CycleStatus::kOk ||
         run.loop().mode() != control::LoopMode::kProgram) {
+      // The stop's cause: the last stopping fault (warnings may come after it).
+      const safety::FaultEvent* stop = nullptr;
+      for (const auto& e : run.events())
+        if (e.kind == safety::EventKind::kFault && e.reaction != Reaction::kWarn) stop = &e;
       o.note = fmt::format("stopped before the injection: {}",
-                           run.events().empty() ? "?" : safety::describe(run.events().back()));
+                           stop                   ? safety::describe(*stop)
+                           : run.events().empty() ? "?"
+                                                  : safety::describe(run.events().back()));
       log.insert(log.end(), run.events().begin(), run.events().end());
       return o;
     }

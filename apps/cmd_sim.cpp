@@ -19,7 +19,9 @@
 // (status 0) on SIGINT/SIGTERM, --exit-after or --exit-when-idle. Test hooks: --estop-after
 // presses the e-stop input of every drive, --fault-after raises a drive fault with an EMCY
 // code, and so does SIGUSR1 (at a moment a test chooses, e.g. while a program runs: drive
-// --fault-drive, code --fault-code).
+// --fault-drive, code --fault-code). With --times-from-enable their times count from the first
+// drive in Operation Enabled (a line says when), so a test injects a set time into the motion
+// however long the master took to boot the drives.
 #include <fmt/core.h>
 
 #include <CLI/CLI.hpp>
@@ -69,6 +71,7 @@ struct SimArgs {
   int rpdo_watchdog = -1;
   double free_run_after = -1.0;
   bool plant_step_nominal = false;
+  bool times_from_enable = false;  // the hooks' times count from the first Operation Enabled
   bool segmented_upload = false;
   bool upload_without_size = false;
   bool no_dummy_mapping = false;
@@ -215,6 +218,9 @@ int run_sim(const SimArgs& a) {
   std::fflush(stdout);
 
   bool estop_done = false, release_done = false, fault_done = false;
+  // The test hooks' time base: the emulator's start, or (--times-from-enable) the first drive
+  // in Operation Enabled, unknown (kNever) until then.
+  std::uint64_t hooks_from = a.times_from_enable ? sim::DriveEmulator::kNever : 0;
   double next_status = a.status_every > 0 ? a.status_every : -1.0;
   const char* reason = "signal";
   // Sleeps until a frame arrives or the next thing is due (the emulator's timers, the test
@@ -222,12 +228,16 @@ int run_sim(const SimArgs& a) {
   auto due_at = [](double s) {
     return s >= 0 ? static_cast<std::uint64_t>(std::llround(s * 1e9)) : sim::DriveEmulator::kNever;
   };
+  auto hook_due = [&](double s) {
+    return s < 0 || hooks_from == sim::DriveEmulator::kNever ? sim::DriveEmulator::kNever
+                                                             : hooks_from + due_at(s);
+  };
   std::uint64_t before = now_ns();
   while (g_stop == 0) {
     std::uint64_t wake = std::min(emu.next_due_ns(before), before + 100'000'000u);
-    if (!estop_done) wake = std::min(wake, due_at(a.estop_after));
-    if (!release_done) wake = std::min(wake, due_at(a.estop_release_after));
-    if (!fault_done) wake = std::min(wake, due_at(a.fault_after));
+    if (!estop_done) wake = std::min(wake, hook_due(a.estop_after));
+    if (!release_done) wake = std::min(wake, hook_due(a.estop_release_after));
+    if (!fault_done) wake = std::min(wake, hook_due(a.fault_after));
     wake = std::min({wake, due_at(next_status), due_at(a.exit_after)});
     if (a.exit_when_idle > 0) wake = std::min(wake, emu.last_frame_ns() + due_at(a.exit_when_idle));
     if (wake > before) bus.wait_readable(std::chrono::nanoseconds(wake - before));
@@ -237,19 +247,30 @@ int run_sim(const SimArgs& a) {
     const double t = seconds(now);
     if (bus.state() == drivers::BusStatus::kBusOff && batched.restart() == drivers::BusStatus::kOk)
       fmt::print("dualv sim: bus-off, restarted\n");
-    if (a.estop_after >= 0 && !estop_done && t >= a.estop_after) {
+    if (hooks_from == sim::DriveEmulator::kNever)
+      for (int i = 0; i < emu.size(); ++i)
+        if (emu.status(i).state == fw::Cia402State::kOperationEnabled) {
+          hooks_from = now;
+          fmt::print(
+              "dualv sim: t={:.3f}s operation enabled (node {}): test hooks count from here\n", t,
+              emu.status(i).node_id);
+          break;
+        }
+    const bool hooks_on = hooks_from != sim::DriveEmulator::kNever;
+    const double th = hooks_on ? seconds(now - hooks_from) : -1.0;  // the hooks' time
+    if (a.estop_after >= 0 && !estop_done && hooks_on && th >= a.estop_after) {
       emu.press_estop(true);
       estop_done = true;
       fmt::print("dualv sim: t={:.3f}s e-stop input pressed (60FDh bit {})\n", t,
                  fw::od::kDigitalInputEstopBit);
     }
-    if (a.estop_release_after >= 0 && !release_done && t >= a.estop_release_after) {
+    if (a.estop_release_after >= 0 && !release_done && hooks_on && th >= a.estop_release_after) {
       emu.press_estop(false);
       release_done = true;
       fmt::print("dualv sim: t={:.3f}s e-stop input released\n", t);
     }
     const bool fault_signal = g_fault != 0;
-    const bool fault_timed = a.fault_after >= 0 && !fault_done && t >= a.fault_after;
+    const bool fault_timed = a.fault_after >= 0 && !fault_done && hooks_on && th >= a.fault_after;
     if (fault_signal || fault_timed) {
       g_fault = 0;
       fault_done = fault_done || fault_timed;
@@ -327,6 +348,9 @@ void register_sim_command(CLI::App& app) {
   cmd->add_flag("--plant-step-nominal", args->plant_step_nominal,
                 "Advance the mechanism by 1006h per SYNC, not by the SYNCs' spacing (test guests "
                 "frozen as a whole by their host)");
+  cmd->add_flag("--times-from-enable", args->times_from_enable,
+                "--estop-after, --estop-release-after and --fault-after count from the first drive "
+                "in Operation Enabled (logged), not from the start");
   cmd->add_flag("--segmented-upload", args->segmented_upload,
                 "Answer every SDO upload with a segmented transfer");
   cmd->add_flag("--upload-without-size", args->upload_without_size,

@@ -24,6 +24,18 @@ torque 6076h, little endian; firmware_if/pdo.hpp) and EMCY (80h + node) frames, 
                      with a non-zero code from each node after the bus-off
 --within N (default 3, "STO within 2 control cycles"): the SYNC count for after-emcy and
 after-bad-tpdo.
+Every run prints when the master stopped: its first RPDO1 whose controlword is not "enable
+operation" after its first that is, in seconds after that first (can_fault_gateway.cpp's and
+`dualv sim --times-from-enable`'s time base), or "no stop". A stop that cannot be the
+injected fault's answer ends with status 3 instead of 0 (safety_hil.sh then reads the
+fault log for the cause: a timing watchdog's in a slow guest, or a failure):
+  --fault-from S:    the master stopped less than S s after its first enable (the fault is
+                     injected at S)
+  --drives-silent:   a drive sent a TPDO1 after the master stopped (the case stops the drives
+                     answering: the stop came while they still did)
+A stop before any torque, or no enable at all, is status 3 too (nothing to show). A run stopped
+before its fault is checked only for what holds whatever stopped it (no torque
+above the limit; torque off at the end in the modes that check it).
 Standard library only (runs with Debian's /usr/bin/python3 inside the UML guest).
 """
 import argparse
@@ -72,6 +84,8 @@ def main():
                              "no-stop", "after-busoff"])
     ap.add_argument("--within", type=int, default=3)
     ap.add_argument("--drives-capture")
+    ap.add_argument("--fault-from", type=float)
+    ap.add_argument("--drives-silent", action="store_true")
     ap.add_argument("capture")
     a = ap.parse_args()
     torque_max, rated = config_numbers(a.config)
@@ -89,6 +103,9 @@ def main():
     prev_pos = {}
     busoff_at = None
     after_busoff = []
+    enabled_at = stopped_at = None  # the master's first enable operation, its first stop after
+    last_tpdo = None
+    moved_before_stop = False
     for ts, cob, data in frames(a.capture):
         if cob & CAN_ERR_FLAG:
             if cob & CAN_ERR_BUSOFF and busoff_at is None:
@@ -96,6 +113,8 @@ def main():
             continue
         if busoff_at is not None and from_master(cob, master):
             after_busoff.append(f"{ts:.6f} {cob:03X}#{data.hex().upper()} sent after bus-off")
+        if 0x181 <= cob <= 0x1FF:
+            last_tpdo = ts
         if 0x181 <= cob <= 0x1FF and bad_tpdo is None:
             if len(data) != 6:
                 bad_tpdo = (ts, f"{cob:03X} with DLC {len(data)}")
@@ -124,10 +143,35 @@ def main():
             last[cob] = (cw, tq, ts)
             if (cw & 0x0F) == 0x0F:
                 enabled.add(cob)
+                if enabled_at is None:
+                    enabled_at = ts
+            elif enabled_at is not None and stopped_at is None:
+                stopped_at = ts
+            if tq != 0 and stopped_at is None:
+                moved_before_stop = True
             if emcy_at is not None and syncs_after_emcy >= a.within and tq != 0:
                 nonzero_after.append(f"{ts:.6f} {cob:03X}: {nm:.2f} N m {syncs_after_emcy} "
                                      f"SYNCs after the trigger")
-    if rpdos == 0 or moving == 0:
+    before_fault = None  # why the stop cannot be the fault's answer
+    if enabled_at is None:
+        print("check_wire: never enabled")
+        before_fault = "the master never enabled the drives"
+    elif stopped_at is None:
+        print("check_wire: no stop")
+    else:
+        after = stopped_at - enabled_at
+        print(f"check_wire: stop {after:.3f} s after the first enable operation")
+        if a.fault_from is not None and after < a.fault_from:
+            before_fault = f"the master stopped {after:.3f} s after enabling, before the fault at {a.fault_from} s"
+        if a.drives_silent and last_tpdo is not None and last_tpdo > stopped_at:
+            before_fault = (f"the master stopped {last_tpdo - stopped_at:.3f} s before the drives' "
+                            f"last TPDO1 (while they still answered)")
+        if not moved_before_stop:
+            before_fault = "the master stopped before it commanded any torque: nothing to show"
+    if before_fault is not None:
+        errors = [e for e in errors if "above the limit" in e]
+        a.mode = "torque-off-at-end" if a.mode in ("after-emcy", "after-bad-tpdo") else "limit-only"
+    if (rpdos == 0 or moving == 0) and before_fault is None:
         errors.append(f"no torque on the wire ({rpdos} RPDOs): the robot never moved")
     if a.mode == "after-emcy":
         if emcy_at is None:
@@ -172,7 +216,9 @@ def main():
           f"mode {a.mode}: {'ok' if not errors else 'FAILED'}")
     for e in errors[:20]:
         print("  " + e)
-    return 1 if errors else 0
+    if before_fault is not None:
+        print(f"check_wire: {before_fault}")
+    return 1 if errors else 3 if before_fault is not None else 0
 
 
 if __name__ == "__main__":

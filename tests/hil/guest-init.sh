@@ -38,6 +38,12 @@ setup_fail() {
 
 mount -t proc proc /proc || setup_fail "mount proc"
 mount -t sysfs sysfs /sys || setup_fail "mount sysfs"
+# bash's process substitution (<(...)) opens /dev/fd/N, which devtmpfs lacks (udev makes the
+# links on a full system).
+[[ -e /dev/fd ]] || ln -s /proc/self/fd /dev/fd
+[[ -e /dev/stdin ]] || ln -s /proc/self/fd/0 /dev/stdin
+[[ -e /dev/stdout ]] || ln -s /proc/self/fd/1 /dev/stdout
+[[ -e /dev/stderr ]] || ln -s /proc/self/fd/2 /dev/stderr
 # /dev is the guest's devtmpfs; give it a private /dev/shm for POSIX shared memory.
 mkdir -p /dev/shm && mount -t tmpfs -o mode=1777 tmpfs /dev/shm || setup_fail "mount /dev/shm"
 

@@ -17,8 +17,8 @@
 # can_fault_gateway.cpp between the controller (vcan0) and the emulator (vcan1), which
 # forwards every frame and breaks the frames of one COB-ID as told:
 #   6. tpdo_lost:    drive 2's TPDO1 (182h) dropped for good    -> stale feedback -> STO
-#   7. tpdo_glitch:  drive 2's TPDO1 dropped 3 times and drive 3's delayed 12 ms 25 times
-#                    (below the stale-feedback watchdog)          -> NO stop, frames counted
+#   7. tpdo_glitch:  drive 2's TPDO1 dropped twice (not in a row) and drive 3's delayed 1.5 ms
+#                    25 times (below the stale-feedback watchdog)  -> NO stop, frames counted
 #   8. rpdo_lost:    drive 2's RPDO1 (202h) dropped for good    -> the drive's RPDO watchdog
 #                    -> EMCY 8250h -> drive fault -> STO
 #   9. tpdo_bad_dlc: drive 3's TPDO1 (183h) with DLC 5 for good -> rejected and counted by
@@ -29,7 +29,8 @@
 #                    -> bus error -> STO; after it the master sends nothing at all, and the
 #                    drives stop on their own (EMCY from each, on vcan1)
 # and in every case no target torque above safety.torque.max in any captured RPDO.
-# Timing in the UML guest is coarse: behaviour and ordering are asserted, never latency.
+# The configuration is the one given, unchanged (see "The configuration given" below for
+# what the guest's timing does to it). Behaviour and ordering are asserted, never latency.
 # Usage: safety_hil.sh DUALV_BINARY CONFIG_YAML --capture CAN_CAPTURE [--gateway CAN_FAULT_GATEWAY]
 #        [CASE...]
 # (default cases: 1-5; with --gateway: 6-11). KEEP=1 keeps the work folder.
@@ -76,51 +77,42 @@ fail() {  # the logs of the case running now (its name is in $tmp/current)
   failed=1
 }
 
-# The guest's timing is coarse (ms-scale late wake-ups, bursts of late frames): widen the
-# timing-related limits (deadline misses, stale cycles, torque rate, the drives' RPDO
-# deadline and heartbeat timeouts) so the cases below test what they name, not the guest.
-# The control rate (250 Hz: the guest's ms-scale jitter is then a fraction of a period) and
-# the controller gains too: kp = 7000 is tuned at the edge of stability for exactly one
-# cycle of delay; the guest's late frames add more, and the loop then oscillates until the
-# safety layer stops it (torque limit, plate velocity), which is right but not these tests.
-# The velocity filter's cutoff must stay below the 250 Hz loop's Nyquist rate (125 Hz).
-config=$tmp/dualv.yaml
-sed -e 's/max_consecutive_deadline_misses: [0-9]*/max_consecutive_deadline_misses: 200/' \
-    -e 's/stale_feedback_cycles: [0-9]*/stale_feedback_cycles: 20/' \
-    -e 's/max_rate: [0-9.]*/max_rate: 1000000.0/' \
-    -e 's/rpdo_deadline: [0-9.]*/rpdo_deadline: 0.2/' \
-    -e 's/drive_timeout: [0-9.]*/drive_timeout: 1.0/' \
-    -e 's/master_timeout: [0-9.]*/master_timeout: 1.0/' \
-    -e 's/^    sdo: [0-9.]*/    sdo: 1.0/' \
-    -e 's/^  rate_hz: [0-9.]*/  rate_hz: 250.0/' -e 's/^    period: 0.001 /    period: 0.004 /' \
-    -e 's/^  kp: [0-9.]*/  kp: 300.0/' -e 's/^  kd: [0-9.]*/  kd: 5.0/' \
-    -e 's/^  velocity_cutoff_hz: [0-9.]*/  velocity_cutoff_hz: 100.0/' \
-    -e 's/^  max_tracking_error: [0-9.]*/  max_tracking_error: 0.05/' \
-    -e 's/^  max_tracking_error_angle: [0-9.]*/  max_tracking_error_angle: 0.5/' "$config_in" >"$config"
-# The gateway cases run at SCHED_FIFO like paper_hil.sh, and take its wider limits for what
-# a guest frozen by host load looks like (hundreds of late cycles in a row, RPDOs 0.2 s
-# apart): the drive-side RPDO watchdog they test counts SYNCs, which a stall cannot trip.
-if [[ -n $gateway ]]; then
-  sed -i -e 's/max_consecutive_deadline_misses: [0-9]*/max_consecutive_deadline_misses: 1000/' \
-    -e 's/rpdo_deadline: [0-9.]*/rpdo_deadline: 1.0/' "$config"
-fi
+# The configuration given, UNCHANGED (the shipped config/dualv.yaml: 1 kHz, its gains,
+# deadlines, watchdogs and limits; the emulator's own RPDO watchdog at its default). The guest
+# cannot always keep 1 kHz (paper_hil.sh: a run may end on the loop's own timing watchdogs
+# after tens to thousands of cycles), so every fault comes early: $fault_at s after the master
+# first enabled the drives (`dualv sim --times-from-enable` and the gateway's time base), into
+# a move that starts at once. What a case shows needs the loop still running when its fault
+# comes: an attempt whose first stop is a timing watchdog's (hil_lib.sh timing_stops_only)
+# and could not be the fault's answer (another cause, or on the wire a stop before the fault:
+# check_wire.py --fault-from / --drives-silent) is tried again, up to $attempts attempts; when
+# every attempt ended so, a NOTE gives their causes and the case is not shown here (no
+# failure). What holds whatever stopped the loop is checked on every attempt: no target
+# torque above the limit on the wire, torque off at the end, the capture complete.
+config=$config_in
+fault_at=0.2
+attempts=4
+stale_cycles=$(sed -n 's/^ *stale_feedback_cycles: *\([0-9]*\).*/\1/p' "$config")
+[[ -n $stale_cycles ]] || { echo "FAIL: no safety.watchdogs.stale_feedback_cycles in $config"; exit 1; }
 
-# A slow program (1 mm/s at most): in the guest, late TPDOs and scheduling stalls of tens of
-# ms make the paper program's fast shapes trip the safety layer for real (inconsistent
-# encoders, jumps after the emulator's free run): right, but not what these cases test.
-program=$tmp/slow.yaml
+# 20 mm in 1 s from the home pose (0, 0.25, 0), then still: target torques of 0.07-0.3 N m
+# from 50 ms on (above the wire's resolution, one per mille of the rated torque), so torque
+# off shows on the wire. A program, not the configuration: it changes no limit.
+program=$tmp/move.yaml
 cat >"$program" <<'YAML'
 program:
   segments:
-    - dwell: {duration: 1.0}
-    - ptp: {to: [0.01, 0.25, 0.0], duration: 10.0}
+    - ptp: {to: [0.02, 0.25, 0.0], duration: 1.0}
     - dwell: {duration: 30.0}
 YAML
 
-# Gateway cases, as paper_hil.sh runs its processes: SCHED_FIFO where permitted (root in the
-# guest): the gateway (90) forwards every frame it is not told to break at once, the
-# emulator (85) answers each SYNC before the controller's (80) next cycle, as drive hardware
-# does, and the capture (95, 8 MB buffer) loses nothing. bg_rt PRIO CMD... & (exec: $! is CMD).
+# Gateway cases, as serve_can_hil.sh runs its processes: SCHED_FIFO where permitted (root in
+# the guest), below the control loop's thread (SCHED_FIFO 80, the shipped loop.priority, which
+# the controller sets itself): the gateway (75) forwards a cycle's frames and the emulator
+# (70) answers its SYNC while the loop sleeps, as drive hardware does beside the host; above
+# the loop they would take the loop's cycle from it on the guest's one CPU (its deadline
+# misses then stop it within a few cycles). The captures (95, 8 MB buffers) wake every 20 ms,
+# not per frame, and lose nothing. bg_rt PRIO CMD... & (exec: $! is CMD).
 fifo_ok=0
 if [[ -n $gateway && $(id -u) -eq 0 ]] && command -v chrt >/dev/null && chrt -f 90 true 2>/dev/null; then
   fifo_ok=1
@@ -132,13 +124,16 @@ bg_rt() {
 }
 
 # Set by a case before run_case: the gateway's rules (gateway mode: the emulator on vcan1,
-# the gateway between vcan1 and the controller's vcan0) and the emulator's RPDO watchdog.
+# the gateway between vcan1 and the controller's vcan0).
 gw_rules=()
-sim_watchdog=0
+sim_frozen=0  # the case stopped the emulator (SIGSTOP): finish_case kills it
 # run_case NAME SIM_ARGS... -- SELFTEST_ARGS...
 run_case() {
   local name=$1; shift
-  local sim_args=(--plant-step-nominal) st_args=()  # the guest is frozen as a whole by host load: its clock jumps are not time the drives saw
+  # --plant-step-nominal: the guest is frozen as a whole by host load, its clock jumps are not
+  # time the drives saw. --times-from-enable: the emulator's fault hooks count from the first
+  # enable (it logs "operation enabled", which the cases that inject from here wait for).
+  local sim_args=(--plant-step-nominal --times-from-enable) st_args=()
   while [[ $# -gt 0 && $1 != -- ]]; do sim_args+=("$1"); shift; done
   shift
   st_args=("$@")
@@ -159,27 +154,32 @@ run_case() {
       { fail "$name: can_capture (vcan1) did not start"; return; }
     local rule_args=()
     for r in "${gw_rules[@]}"; do rule_args+=(--rule "$r"); done
-    bg_rt 90 "$gateway" vcan0 vcan1 "${rule_args[@]}" >"$tmp/$name.gw.log" 2>&1 &
+    bg_rt 75 "$gateway" vcan0 vcan1 "${rule_args[@]}" >"$tmp/$name.gw.log" 2>&1 &
     gw_pid=$!
     wait_for "$tmp/$name.gw.log" "ready" 5 || { fail "$name: can_fault_gateway did not start"; return; }
   fi
   sleep 0.3
-  bg_rt 85 "$dualv" sim --can "$sim_if" --config "$config" --exit-after 60 --status-every 0 \
-    --rpdo-watchdog "$sim_watchdog" "${sim_args[@]}" >"$simlog" 2>&1 &
+  bg_rt 70 "$dualv" sim --can "$sim_if" --config "$config" --exit-after 60 --status-every 0 \
+    "${sim_args[@]}" >"$simlog" 2>&1 &
   sim_pid=$!
   wait_for "$simlog" "drives booted" 10 || { fail "$name: dualv sim did not start"; return; }
-  bg_rt 80 "$dualv" selftest --can vcan0 --i-understand-this-moves-hardware --config "$config" \
+  "$dualv" selftest --can vcan0 --i-understand-this-moves-hardware --config "$config" \
     --program "$program" --fault-log "$tmp/$name.faults.log" "${st_args[@]}" >"$ctl" 2>&1 &
   ctl_pid=$!
 }
-finish_case() {  # finish_case NAME EXPECTED_SELFTEST_EXIT [SECONDS_TO_LET_THE_DRIVES_RUN_ON]
-  local name=$1 expect_rc=$2
+finish_case() {  # finish_case NAME [SECONDS_TO_LET_THE_DRIVES_RUN_ON]: sets st_rc
+  local name=$1
   wait "$ctl_pid"
-  local rc=$?
+  st_rc=$?
   ctl_pid=
-  sleep "${3:-0}"
-  kill -CONT "$sim_pid" 2>/dev/null
-  kill -TERM "$sim_pid" 2>/dev/null
+  sleep "${2:-0}"
+  if [[ $sim_frozen -eq 1 ]]; then
+    kill -KILL "$sim_pid" 2>/dev/null  # stopped, it must not answer again (no SIGCONT)
+    sim_frozen=0
+  else
+    kill -CONT "$sim_pid" 2>/dev/null
+    kill -TERM "$sim_pid" 2>/dev/null
+  fi
   wait "$sim_pid" 2>/dev/null
   sim_pid=
   if [[ -n $gw_pid ]]; then
@@ -196,17 +196,45 @@ finish_case() {  # finish_case NAME EXPECTED_SELFTEST_EXIT [SECONDS_TO_LET_THE_D
   for e in "$tmp/$name".dump.err "$tmp/$name".drives.dump.err; do
     [[ ! -f $e ]] || grep -q " 0 lost" "$e" || fail "$name: the capture lost frames: $(tail -n 1 "$e")"
   done
-  echo "=== $name (selftest exit $rc)"
+  echo "=== $name (selftest exit $st_rc)"
   cat "$tmp/$name.ctl.log"
   cat "$tmp/$name.faults.log" 2>/dev/null
   [[ -f "$tmp/$name.gw.log" ]] && grep -E "rule .*(acts|acted)|stopped" "$tmp/$name.gw.log"
-  [[ $rc -eq $expect_rc ]] || fail "$name: selftest exited $rc, expected $expect_rc"
+  return 0
 }
-check_wire() {  # check_wire NAME MODE [CHECK_WIRE_ARGS...]
-  local name=$1 mode=$2
-  shift 2
-  "$py" "$here/check_wire.py" --config "$config" --mode "$mode" "$@" "$tmp/$name.dump.log" ||
+# first_stop NAME: the first stopping fault of the case's fault log (hil_lib.sh stop_causes),
+# the host's own stop at the end of an --await-stop without one (e-stop (CLI)) left out.
+first_stop() {
+  stop_causes <"$tmp/$1.faults.log" 2>/dev/null | grep -v '^e-stop (CLI)' | head -n 1
+}
+# shown NAME EXPECTED_CAUSE_ERE SELFTEST_EXIT WIRE_MODE [CHECK_WIRE_ARGS...]: 0 when the
+# case's fault was answered (its first stop matches EXPECTED_CAUSE_ERE and the wire check
+# passed: the case's own checks follow); 1 otherwise, after fail() or with $outcome set to
+# "timing: CAUSE" (a timing watchdog stopped the loop before the fault could act: retried).
+# The wire check's status 1 (a violation whatever stopped the loop) always fails.
+shown() {
+  local name=$1 expected=$2 expect_rc=$3 mode=$4 first rc
+  shift 4
+  first=$(first_stop "$name")
+  "$py" "$here/check_wire.py" --config "$config" --mode "$mode" "$@" "$tmp/$name.dump.log" \
+    >"$tmp/$name.wire.log"
+  rc=$?
+  cat "$tmp/$name.wire.log"
+  if [[ $rc -ne 0 && $rc -ne 3 ]]; then
     fail "$name: wire check ($mode)"
+    return 1
+  fi
+  if [[ $rc -eq 0 ]] && grep -Eq -- "$expected" <<<"$first"; then
+    [[ $st_rc -eq $expect_rc ]] || fail "$name: selftest exited $st_rc, expected $expect_rc"
+    return 0
+  fi
+  if timing_stops_only <<<"$first"; then
+    outcome="timing: $first"
+    echo "--- $name: a timing watchdog stopped the loop before its fault could act: $first"
+    return 1
+  fi
+  fail "$name: first stop: ${first:-none} (expected: $expected)"
+  return 1
 }
 in_log() {  # in_log NAME SUFFIX EXTENDED_REGEX: the case's log has a line matching
   grep -Eq -- "$3" "$tmp/$1.$2" 2>/dev/null
@@ -216,145 +244,245 @@ acted() {  # acted NAME N: the gateway's first rule acted on at least N frames
   n=$(sed -n "s/^can_fault_gateway: rule .* acted on \([0-9]*\) frames$/\1/p" "$tmp/$1.gw.log" | head -n 1)
   [[ -n $n && $n -ge $2 ]] || fail "$1: the gateway's rule acted on ${n:-no} frames, expected >= $2"
 }
+acted_exactly() {  # acted_exactly NAME RULE N: the gateway's rule RULE acted on N frames
+  in_log "$1" gw.log "^can_fault_gateway: rule '$2' acted on $3 frames$" ||
+    fail "$1: the gateway's rule '$2' did not act on $3 frames"
+}
 
 case_drive_fault() {  # 1. Drive fault from the emulator: EMCY, then STO.
-  run_case drive_fault --fault-after 6 --fault-drive 2 --fault-code 0x2310 -- --await-stop 25 --expect sto
-  finish_case drive_fault 0
-  grep -q "cause: drive fault" "$tmp/drive_fault.ctl.log" || fail "drive_fault: not stopped by the drive fault"
-  check_wire drive_fault after-emcy
+  run_case drive_fault --fault-after "$fault_at" --fault-drive 2 --fault-code 0x2310 -- \
+    --await-stop 25 --expect sto
+  finish_case drive_fault
+  shown drive_fault '^drive fault drive 3: EMCY 2310h' 0 after-emcy --fault-from "$fault_at" || return
+  in_log drive_fault ctl.log "cause: drive fault" || fail "drive_fault: not stopped by the drive fault"
 }
-case_estop_button() {  # 2. The e-stop button (hardwired circuit, 60FDh).
-  run_case estop_button --estop-after 6 -- --await-stop 25 --expect sto
-  finish_case estop_button 0
-  grep -Eq "cause: (e-stop circuit|drive fault)" "$tmp/estop_button.ctl.log" ||
-    fail "estop_button: not stopped by the circuit"
-  check_wire estop_button torque-off-at-end
+case_estop_button() {  # 2. The e-stop button (hardwired circuit, 60FDh): STO.
+  run_case estop_button --estop-after "$fault_at" -- --await-stop 25 --expect sto
+  finish_case estop_button
+  # The drives leave Operation enabled with the button (STO in the drive): the host may read
+  # that in the same cycle as the input.
+  shown estop_button '^(e-stop circuit|drive fault drive [0-9]+: left Operation enabled)' 0 \
+    torque-off-at-end --fault-from "$fault_at" || return
+}
+# after_enable NAME BUILTIN...: runs BUILTIN (kill) 0.1 s after the emulator logged the first
+# enable and returns 0; 1 when the controller ended first or none came in 20 s (the case's
+# stop is then judged as any other). The log is read as it is written (tail -f: inotify), and
+# the wait is bash's own (read -t): a process started in those 0.1 s (a poll, sleep) costs the
+# guest tens of ms, and the loop may not keep the shipped timing for long.
+after_enable() {
+  local name=$1 line found=1 fd tail_pid waited=0 rc
+  shift
+  exec {fd}< <(exec tail -n +1 -f "$tmp/$name.sim.log")
+  tail_pid=$!
+  while ((waited < 20)); do
+    IFS= read -r -t 1 -u "$fd" line
+    rc=$?
+    if [[ $rc -eq 0 ]]; then
+      [[ $line == *"operation enabled"* ]] && { found=0; break; }
+    elif [[ $rc -gt 128 ]]; then  # a second without a line
+      kill -0 "$ctl_pid" 2>/dev/null || break
+      ((++waited))
+    else
+      break
+    fi
+  done
+  if [[ $found -eq 0 ]]; then
+    IFS= read -r -t 0.1 -u "$fd" line  # the emulator logs nothing more until the injection
+    "$@"
+  fi
+  kill "$tail_pid" 2>/dev/null
+  exec {fd}<&-
+  return $found
 }
 case_sigint() {  # 3. SIGINT to the controller: a signal e-stop request, SS1 then torque off.
   run_case sigint -- --await-stop 25 --expect ss1
-  sleep 7
-  kill -INT "$ctl_pid"
-  finish_case sigint 0
-  grep -q "cause: e-stop (signal)" "$tmp/sigint.ctl.log" || fail "sigint: not stopped by the signal"
-  check_wire sigint torque-off-at-end
+  after_enable sigint kill -INT "$ctl_pid"
+  finish_case sigint
+  shown sigint '^e-stop \(signal\)' 0 torque-off-at-end || return
 }
 case_drives_gone() {  # 4. The drives vanish (the emulator process stops answering): STO.
   run_case drives_gone -- --await-stop 25 --expect sto
-  sleep 7
-  kill -STOP "$sim_pid"
-  finish_case drives_gone 0
-  grep -Eq "cause: (stale feedback|drive lost)" "$tmp/drives_gone.ctl.log" || fail "drives_gone: wrong cause"
-  check_wire drives_gone torque-off-at-end
+  after_enable drives_gone kill -STOP "$sim_pid" && sim_frozen=1
+  finish_case drives_gone
+  # Stale feedback is also what a frozen guest causes: the stop must come after the drives'
+  # last TPDO1 on the wire (--drives-silent), or it was not their vanishing.
+  shown drives_gone '^(stale feedback|drive lost)' 0 torque-off-at-end --drives-silent || return
 }
 case_host_faults() {  # 5. Host-injected faults and limit tests, as commissioning runs them.
-  run_case host_faults -- --only "encoder jump" "10x" "NaN" "deadline misses" "limit test" \
-    --inject-at 3.0
-  finish_case host_faults 0
-  [[ $(grep -c "limit test: .* PASS" "$tmp/host_faults.ctl.log") -eq 6 ]] ||
-    fail "host_faults: not every limit test ran and passed"
-  check_wire host_faults limit-only
+  # One selftest runs the scenarios still to show (host_todo) one after another, each
+  # injecting $fault_at s into the program; a scenario stopped before its injection by a
+  # timing watchdog ("stopped before the injection: CAUSE") stays to do.
+  run_case host_faults -- --only "${host_todo[@]}" --inject-at "$fault_at"
+  finish_case host_faults
+  local rows=() row name left=()
+  mapfile -t rows < <(grep -E '^(encoder jump|controller|deadline misses|limit test)' "$tmp/host_faults.ctl.log")
+  for row in "${rows[@]}"; do
+    name=$(sed -E 's/ {2,}.*//' <<<"$row")
+    if grep -q " PASS " <<<"$row"; then
+      continue
+    elif [[ $row =~ stopped\ before\ the\ injection:\ (.*)$ ]] &&
+      timing_stops_only <<<"$(sed -E 's/ -> [A-Z0-9]+$//' <<<"${BASH_REMATCH[1]}")"; then
+      left+=("$name")
+      host_notes+=("$name: ${BASH_REMATCH[1]}")
+    else
+      fail "host_faults: $row"
+      left+=("$name")  # its second attempt
+    fi
+  done
+  [[ ${#rows[@]} -eq ${#host_todo[@]} ]] ||
+    fail "host_faults: ${#rows[@]} scenario rows for ${#host_todo[@]} scenarios"
+  # Whatever stopped each scenario: no torque above the limit, torque off at the end.
+  "$py" "$here/check_wire.py" --config "$config" --mode torque-off-at-end "$tmp/host_faults.dump.log" ||
+    fail "host_faults: wire check"
+  host_todo=("${left[@]}")
+  [[ ${#left[@]} -eq 0 || $failed -ne 0 ]] || outcome="timing: ${left[*]}"
 }
+host_todo=("encoder jump" "10x" "NaN" "deadline misses" "limit test: torque rate"
+  "limit test: joint velocity" "limit test: plate velocity" "limit test: workspace"
+  "limit test: singularity distance" "limit test: tracking error")
+host_notes=()
 
 
 # --- frame faults, through can_fault_gateway (--gateway) -----------------------------------
-# Rules act from 5.5 s after the master first enabled the drives (the gateway's time base):
-# into the slow move, where the target torques are large enough to show on the wire (one
-# per mille of the rated torque is 0.05 N m). Drive i (0-based in the fault log) is node i + 1.
+# Rules act from $fault_at s after the master first enabled the drives (the gateway's time
+# base): into the move. Drive i (0-based in the fault log's "drive") is node i + 1, "drive
+# i + 1" in its text.
 case_tpdo_lost() {  # 6. Drive 2's position never arrives again: stale feedback, STO.
-  gw_rules=("drop 0x182 from=5.5")
+  gw_rules=("drop 0x182 from=$fault_at")
   run_case tpdo_lost -- --await-stop 13 --expect sto
-  finish_case tpdo_lost 0
+  finish_case tpdo_lost
+  shown tpdo_lost '^stale feedback drive 2' 0 torque-off-at-end --fault-from "$fault_at" || return
   acted tpdo_lost 1
-  in_log tpdo_lost ctl.log "cause: stale feedback" || fail "tpdo_lost: not stopped by stale feedback"
   in_log tpdo_lost faults.log '"cause":"stale feedback","reaction":"STO","drive":1,' ||
     fail "tpdo_lost: no stale-feedback STO of drive 2 in the fault log"
-  check_wire tpdo_lost torque-off-at-end
 }
 case_tpdo_glitch() {  # 7. Short losses and delays below the watchdog: the machine keeps going.
-  gw_rules=("drop 0x182 from=5.5 count=3" "delay 0x183 ms=12 from=6.5 count=25")
-  run_case tpdo_glitch -- --await-stop 9 --expect sto
-  finish_case tpdo_glitch 1
-  in_log tpdo_glitch gw.log "rule 'drop 0x182 from=5.5 count=3' acted on 3 frames" ||
-    fail "tpdo_glitch: the gateway did not drop 3 TPDOs"
-  in_log tpdo_glitch gw.log "rule 'delay 0x183 ms=12 from=6.5 count=25' acted on 25 frames" ||
-    fail "tpdo_glitch: the gateway did not delay 25 TPDOs"
-  in_log tpdo_glitch ctl.log "no stop within" || fail "tpdo_glitch: stopped by a tolerated glitch"
-  # The only stop is the host's own at the end (a stop request, SS1): no stop from a monitor.
-  if grep '"event":"fault"' "$tmp/tpdo_glitch.faults.log" | grep -E '"reaction":"(SS1|STO)"' |
-    grep -v '"cause":"e-stop (CLI)"' | grep -q .; then
-    fail "tpdo_glitch: a monitor stopped the machine: $(grep -E '"reaction":"(SS1|STO)"' "$tmp/tpdo_glitch.faults.log" | head -n 1)"
+  # Below the shipped watchdog ($stale_cycles cycles without a fresh position): two single
+  # losses of 182h, and 183h 1.5 ms late 25 times in a row (each arrives a cycle late: one
+  # a cycle, never $stale_cycles cycles without one). Over by $glitch_end s.
+  local glitch_end=0.4 first at
+  gw_rules=("drop 0x182 from=$fault_at count=1" "drop 0x182 from=0.25 count=1"
+    "delay 0x183 ms=1.5 from=0.3 count=25")
+  run_case tpdo_glitch -- --await-stop 2 --expect sto
+  finish_case tpdo_glitch
+  first=$(first_stop tpdo_glitch)
+  "$py" "$here/check_wire.py" --config "$config" --mode no-stop --fault-from "$fault_at" \
+    "$tmp/tpdo_glitch.dump.log" >"$tmp/tpdo_glitch.wire.log"
+  local rc=$?
+  cat "$tmp/tpdo_glitch.wire.log"
+  at=$(sed -n 's/^check_wire: stop \([0-9.]*\) s after.*/\1/p' "$tmp/tpdo_glitch.wire.log")
+  if [[ $rc -eq 1 ]]; then
+    fail "tpdo_glitch: wire check"
+    return
+  elif [[ -n $first ]]; then
+    # A stop: by a timing watchdog before the glitches (retried), or after they were over
+    # (they were tolerated: shown); anything else, or a stale drive 2 / 3 meanwhile, fails.
+    if ! timing_stops_only <<<"$first"; then
+      fail "tpdo_glitch: stopped by: $first"
+      return
+    elif [[ $rc -eq 3 ]]; then
+      outcome="timing: $first"
+      echo "--- tpdo_glitch: a timing watchdog stopped the loop before the glitches: $first"
+      return
+    elif [[ -n $at ]] && awk -v a="$at" -v e="$glitch_end" 'BEGIN { exit !(a < e) }' &&
+      grep -Eq '^stale feedback drive (2|3)' <<<"$first"; then
+      fail "tpdo_glitch: stopped during the glitches by: $first"
+      return
+    elif [[ -n $at ]] && awk -v a="$at" -v e="$glitch_end" 'BEGIN { exit !(a < e) }'; then
+      outcome="timing: $first"
+      echo "--- tpdo_glitch: a timing watchdog stopped the loop during the glitches: $first"
+      return
+    fi
+    echo "--- tpdo_glitch: the glitches were tolerated; a timing watchdog stopped the loop after them: $first"
+  else
+    in_log tpdo_glitch ctl.log "no stop within" || fail "tpdo_glitch: the selftest saw a stop"
   fi
+  acted_exactly tpdo_glitch "drop 0x182 from=$fault_at count=1" 1
+  acted_exactly tpdo_glitch "drop 0x182 from=0.25 count=1" 1
+  acted_exactly tpdo_glitch "delay 0x183 ms=1.5 from=0.3 count=25" 25
   in_log tpdo_glitch ctl.log "node 2: .*missed [1-9]" || fail "tpdo_glitch: drive 2's losses not counted"
-  check_wire tpdo_glitch no-stop
 }
 case_rpdo_lost() {  # 8. Drive 2 gets no target torque: its RPDO watchdog faults it, STO.
-  gw_rules=("drop 0x202 from=5.5")
-  sim_watchdog=5
+  gw_rules=("drop 0x202 from=$fault_at")
   run_case rpdo_lost -- --await-stop 13 --expect sto
-  sim_watchdog=0
-  finish_case rpdo_lost 0
-  acted rpdo_lost 5
+  finish_case rpdo_lost
+  # EMCY 8250h is also what a frozen guest causes: drive 2's, after the rule began (the wire).
+  shown rpdo_lost '^drive fault drive 2: (EMCY 8250h|left Operation enabled)' 0 after-emcy --fault-from "$fault_at" || return
+  acted rpdo_lost 1
   in_log rpdo_lost sim.log "node 2: .*RPDO watchdog trips [1-9]" ||
     fail "rpdo_lost: drive 2's RPDO watchdog did not trip"
-  in_log rpdo_lost ctl.log "cause: drive fault" || fail "rpdo_lost: not stopped by the drive fault"
   in_log rpdo_lost faults.log '"cause":"drive fault","reaction":"STO","drive":1,' ||
     fail "rpdo_lost: no drive-fault STO of drive 2 in the fault log"
-  check_wire rpdo_lost after-emcy
 }
 case_tpdo_bad_dlc() {  # 9. Drive 3's TPDOs one byte short: rejected, counted, then stale: STO.
-  gw_rules=("dlc 0x183 dlc=5 from=5.5")
+  gw_rules=("dlc 0x183 dlc=5 from=$fault_at")
   run_case tpdo_bad_dlc -- --await-stop 13 --expect sto
-  finish_case tpdo_bad_dlc 0
+  finish_case tpdo_bad_dlc
+  # Detected at the stale-feedback watchdog ($stale_cycles cycles), torque off with it (STO
+  # within 2 cycles after).
+  shown tpdo_bad_dlc '^stale feedback drive 3' 0 after-bad-tpdo --within $((stale_cycles + 3)) \
+    --fault-from "$fault_at" || return
   acted tpdo_bad_dlc 1
   in_log tpdo_bad_dlc ctl.log "node 3: .*malformed [1-9]" ||
     fail "tpdo_bad_dlc: the master did not count the malformed TPDOs"
-  in_log tpdo_bad_dlc ctl.log "cause: stale feedback" ||
-    fail "tpdo_bad_dlc: not stopped by stale feedback"
   in_log tpdo_bad_dlc faults.log '"cause":"stale feedback","reaction":"STO","drive":2,' ||
     fail "tpdo_bad_dlc: no stale-feedback STO of drive 3 in the fault log"
-  # Detected at the stale-feedback watchdog (20 cycles in this overlay), torque off with it.
-  check_wire tpdo_bad_dlc after-bad-tpdo --within 25
 }
 case_tpdo_xor() {  # 10. One TPDO of drive 4 with every byte flipped: STO within 2 cycles.
-  gw_rules=("xor 0x184 mask=0xFF from=5.5 count=1")
+  gw_rules=("xor 0x184 mask=0xFF from=$fault_at count=1")
   run_case tpdo_xor -- --await-stop 13 --expect sto
-  finish_case tpdo_xor 0
-  acted tpdo_xor 1
+  finish_case tpdo_xor
   # The flipped statusword reads as Fault and the position as a jump: either is the cause,
   # never the missing feedback.
-  in_log tpdo_xor ctl.log "cause: (encoder jump|drive fault|invalid state)" ||
-    fail "tpdo_xor: not stopped by the corrupted feedback"
+  shown tpdo_xor '^((encoder jump|drive fault|invalid state) drive 4|inconsistent encoders)' 0 \
+    after-bad-tpdo --fault-from "$fault_at" || return
+  acted tpdo_xor 1
   in_log tpdo_xor faults.log '"reaction":"STO","drive":3,' ||
     fail "tpdo_xor: no STO event for drive 4 in the fault log"
-  check_wire tpdo_xor after-bad-tpdo
 }
 case_bus_off() {  # 11. The controller's CAN goes bus-off: STO, silence, the drives stop alone.
   gw_rules=()
   run_case bus_off -- --await-stop 13 --expect sto
-  wait_for "$tmp/bus_off.gw.log" "first enable operation" 15 || fail "bus_off: never enabled"
-  sleep 5.5
-  # An error frame as a controller driver reports bus-off (linux/can/error.h).
-  cansend vcan0 20000040#0000000000000000 || fail "bus_off: cansend could not send the error frame"
+  if wait_for "$tmp/bus_off.gw.log" "first enable operation" 15; then
+    sleep "$fault_at"
+    # An error frame as a controller driver reports bus-off (linux/can/error.h).
+    cansend vcan0 20000040#0000000000000000 || fail "bus_off: cansend could not send the error frame"
+  else
+    fail "bus_off: never enabled"
+  fi
   # The drives' own stop (RPDO deadline, master heartbeat consumer) comes within 1 s.
-  finish_case bus_off 0 2
-  in_log bus_off ctl.log "cause: (bus error|drive lost)" || fail "bus_off: not stopped by the bus-off"
+  finish_case bus_off 2
+  shown bus_off '^bus error' 0 after-busoff --drives-capture "$tmp/bus_off.drives.dump.log" || return
   in_log bus_off faults.log '"cause":"bus error","reaction":"STO"' || fail "bus_off: no bus error in the fault log"
   in_log bus_off ctl.log "bus: .*bus-off 1;" || fail "bus_off: the master did not report the bus-off"
-  check_wire bus_off after-busoff --drives-capture "$tmp/bus_off.drives.dump.log"
 }
 
-# Each case gets a second attempt: the guest sometimes stalls a process for a second or more
-# (both sides then lose each other's heartbeat), which no setting here can absorb. A case
-# fails the test only when both attempts fail; the first attempt's output stays above.
+# Attempts: a case is tried again while a timing watchdog stopped it before its fault could
+# act (up to $attempts attempts: then a NOTE, not shown), and once after a failure (the guest
+# sometimes stalls a process for seconds; a case fails the test when two attempts fail). The
+# earlier attempts' output stays above.
 any_failed=0
 for c in "${cases[@]}"; do
-  failed=0
-  "case_$c"
-  if [[ $failed -ne 0 ]]; then
-    echo "--- $c: second attempt"
-    failed=0
+  fails=0 notes=()
+  for ((attempt = 1; attempt <= attempts; ++attempt)); do
+    failed=0 outcome=
+    [[ $attempt -eq 1 ]] || echo "--- $c: attempt $attempt"
     "case_$c"
-    [[ $failed -ne 0 ]] && any_failed=1
+    if [[ $failed -ne 0 ]]; then
+      ((++fails))
+      [[ $fails -lt 2 ]] && continue
+      any_failed=1
+      break
+    fi
+    [[ -z $outcome ]] && break
+    notes+=("attempt $attempt: ${outcome#timing: }")
+  done
+  [[ $failed -eq 0 ]] || any_failed=1
+  if [[ $failed -eq 0 && -n $outcome ]]; then
+    echo "NOTE: $c not shown: every attempt was stopped by a timing watchdog of the loop before"
+    echo "  its fault could act (the guest did not keep the shipped timing; the wire was checked):"
+    printf '  %s\n' "${notes[@]}"
+    [[ $c != host_faults ]] || printf '  still to show: %s\n' "${host_todo[@]}"
   fi
 done
 failed=$any_failed
