@@ -139,6 +139,7 @@ run_case() {
   st_args=("$@")
   local dump=$tmp/$name.dump.log simlog=$tmp/$name.sim.log ctl=$tmp/$name.ctl.log
   local sim_if=vcan0
+  rm -f "$tmp/$name".*  # an earlier attempt's (the fault log is appended to)
   echo "$name" >"$tmp/current"
   # Every frame plus error frames (the bus-off case).
   bg_rt 95 "$capture" vcan0 "$dump" --errors 2>"$dump.err" &
@@ -202,10 +203,15 @@ finish_case() {  # finish_case NAME [SECONDS_TO_LET_THE_DRIVES_RUN_ON]: sets st_
   [[ -f "$tmp/$name.gw.log" ]] && grep -E "rule .*(acts|acted)|stopped" "$tmp/$name.gw.log"
   return 0
 }
-# first_stop NAME: the first stopping fault of the case's fault log (hil_lib.sh stop_causes),
-# the host's own stop at the end of an --await-stop without one (e-stop (CLI)) left out.
+# first_stop NAME: the stopping faults of the case's first stop (hil_lib.sh stop_causes; every
+# one logged in the cycle of the first, as the filter found them together: bus-off is a bus
+# error and every drive lost at once), one a line; the host's own stop at the end of an
+# --await-stop without one (e-stop (CLI)) left out.
 first_stop() {
-  stop_causes <"$tmp/$1.faults.log" 2>/dev/null | grep -v '^e-stop (CLI)' | head -n 1
+  grep -E '"event":"fault".*"reaction":"(SS1|STO)"' "$tmp/$1.faults.log" 2>/dev/null |
+    grep -v '"cause":"e-stop (CLI)"' |
+    awk -F'"cycle":' 'NR == 1 { split($2, a, ","); c = a[1] } { split($2, b, ","); if (b[1] == c) print }' |
+    stop_causes
 }
 # shown NAME EXPECTED_CAUSE_ERE SELFTEST_EXIT WIRE_MODE [CHECK_WIRE_ARGS...]: 0 when the
 # case's fault was answered (its first stop matches EXPECTED_CAUSE_ERE and the wire check
@@ -229,11 +235,11 @@ shown() {
     return 0
   fi
   if timing_stops_only <<<"$first"; then
-    outcome="timing: $first"
-    echo "--- $name: a timing watchdog stopped the loop before its fault could act: $first"
+    outcome="timing: ${first//$'\n'/; }"
+    echo "--- $name: a timing watchdog stopped the loop before its fault could act: ${first//$'\n'/; }"
     return 1
   fi
-  fail "$name: first stop: ${first:-none} (expected: $expected)"
+  fail "$name: first stop: ${first:-none} (expected: $expected)"  # (one cause a line)
   return 1
 }
 in_log() {  # in_log NAME SUFFIX EXTENDED_REGEX: the case's log has a line matching
@@ -264,21 +270,21 @@ case_estop_button() {  # 2. The e-stop button (hardwired circuit, 60FDh): STO.
   shown estop_button '^(e-stop circuit|drive fault drive [0-9]+: left Operation enabled)' 0 \
     torque-off-at-end --fault-from "$fault_at" || return
 }
-# after_enable NAME BUILTIN...: runs BUILTIN (kill) 0.1 s after the emulator logged the first
-# enable and returns 0; 1 when the controller ended first or none came in 20 s (the case's
-# stop is then judged as any other). The log is read as it is written (tail -f: inotify), and
-# the wait is bash's own (read -t): a process started in those 0.1 s (a poll, sleep) costs the
-# guest tens of ms, and the loop may not keep the shipped timing for long.
-after_enable() {
-  local name=$1 line found=1 fd tail_pid waited=0 rc
-  shift
-  exec {fd}< <(exec tail -n +1 -f "$tmp/$name.sim.log")
+# after_line FILE PATTERN SECONDS COMMAND...: runs COMMAND SECONDS after FILE got a line
+# containing PATTERN and returns 0; 1 when the controller ended first or no such line came in
+# 20 s (the case's stop is then judged as any other). FILE is read as it is written (tail -f:
+# inotify) and the wait is bash's own (read -t): a process started meanwhile (a poll, sleep)
+# costs the guest tens of ms, and the loop may not keep the shipped timing for long.
+after_line() {
+  local file=$1 pattern=$2 delay=$3 line found=1 fd tail_pid waited=0 rc
+  shift 3
+  exec {fd}< <(exec tail -n +1 -f "$file")
   tail_pid=$!
   while ((waited < 20)); do
     IFS= read -r -t 1 -u "$fd" line
     rc=$?
     if [[ $rc -eq 0 ]]; then
-      [[ $line == *"operation enabled"* ]] && { found=0; break; }
+      [[ $line == *"$pattern"* ]] && { found=0; break; }
     elif [[ $rc -gt 128 ]]; then  # a second without a line
       kill -0 "$ctl_pid" 2>/dev/null || break
       ((++waited))
@@ -287,7 +293,7 @@ after_enable() {
     fi
   done
   if [[ $found -eq 0 ]]; then
-    IFS= read -r -t 0.1 -u "$fd" line  # the emulator logs nothing more until the injection
+    IFS= read -r -t "$delay" -u "$fd" line  # nothing more is logged until the injection
     "$@"
   fi
   kill "$tail_pid" 2>/dev/null
@@ -296,13 +302,14 @@ after_enable() {
 }
 case_sigint() {  # 3. SIGINT to the controller: a signal e-stop request, SS1 then torque off.
   run_case sigint -- --await-stop 25 --expect ss1
-  after_enable sigint kill -INT "$ctl_pid"
+  after_line "$tmp/sigint.sim.log" "operation enabled" 0.1 kill -INT "$ctl_pid"
   finish_case sigint
   shown sigint '^e-stop \(signal\)' 0 torque-off-at-end || return
 }
 case_drives_gone() {  # 4. The drives vanish (the emulator process stops answering): STO.
   run_case drives_gone -- --await-stop 25 --expect sto
-  after_enable drives_gone kill -STOP "$sim_pid" && sim_frozen=1
+  after_line "$tmp/drives_gone.sim.log" "operation enabled" 0.1 kill -STOP "$sim_pid" &&
+    sim_frozen=1
   finish_case drives_gone
   # Stale feedback is also what a frozen guest causes: the stop must come after the drives'
   # last TPDO1 on the wire (--drives-silent), or it was not their vanishing.
@@ -375,22 +382,17 @@ case_tpdo_glitch() {  # 7. Short losses and delays below the watchdog: the machi
     fail "tpdo_glitch: wire check"
     return
   elif [[ -n $first ]]; then
-    # A stop: by a timing watchdog before the glitches (retried), or after they were over
-    # (they were tolerated: shown); anything else, or a stale drive 2 / 3 meanwhile, fails.
+    # A stop: by a timing watchdog before the glitches or while they went on (retried), or
+    # after they were over (they were tolerated: shown); any other cause fails. A stale drive
+    # 2 or 3 during the glitches is a lost or late frame plus the guest's own late cycles: in
+    # the guest the two cannot be told apart (the exact tolerance, on simulated time:
+    # tests/safety/safety_can_test.cpp TwoCyclesOfDroppedFeedbackAreToleratedMoreAreSto).
     if ! timing_stops_only <<<"$first"; then
       fail "tpdo_glitch: stopped by: $first"
       return
-    elif [[ $rc -eq 3 ]]; then
-      outcome="timing: $first"
-      echo "--- tpdo_glitch: a timing watchdog stopped the loop before the glitches: $first"
-      return
-    elif [[ -n $at ]] && awk -v a="$at" -v e="$glitch_end" 'BEGIN { exit !(a < e) }' &&
-      grep -Eq '^stale feedback drive (2|3)' <<<"$first"; then
-      fail "tpdo_glitch: stopped during the glitches by: $first"
-      return
-    elif [[ -n $at ]] && awk -v a="$at" -v e="$glitch_end" 'BEGIN { exit !(a < e) }'; then
-      outcome="timing: $first"
-      echo "--- tpdo_glitch: a timing watchdog stopped the loop during the glitches: $first"
+    elif [[ $rc -eq 3 ]] || { [[ -n $at ]] && awk -v a="$at" -v e="$glitch_end" 'BEGIN { exit !(a < e) }'; }; then
+      outcome="timing: ${first//$'\n'/; }"
+      echo "--- tpdo_glitch: a timing watchdog stopped the loop before the glitches were over: ${first//$'\n'/; }"
       return
     fi
     echo "--- tpdo_glitch: the glitches were tolerated; a timing watchdog stopped the loop after them: $first"
@@ -440,19 +442,18 @@ case_tpdo_xor() {  # 10. One TPDO of drive 4 with every byte flipped: STO within
   in_log tpdo_xor faults.log '"reaction":"STO","drive":3,' ||
     fail "tpdo_xor: no STO event for drive 4 in the fault log"
 }
+send_bus_off() {
+  cansend vcan0 20000040#0000000000000000 || fail "bus_off: cansend could not send the error frame"
+}
 case_bus_off() {  # 11. The controller's CAN goes bus-off: STO, silence, the drives stop alone.
   gw_rules=()
   run_case bus_off -- --await-stop 13 --expect sto
-  if wait_for "$tmp/bus_off.gw.log" "first enable operation" 15; then
-    sleep "$fault_at"
-    # An error frame as a controller driver reports bus-off (linux/can/error.h).
-    cansend vcan0 20000040#0000000000000000 || fail "bus_off: cansend could not send the error frame"
-  else
-    fail "bus_off: never enabled"
-  fi
+  # An error frame as a controller driver reports bus-off (linux/can/error.h).
+  after_line "$tmp/bus_off.gw.log" "first enable operation" "$fault_at" send_bus_off
   # The drives' own stop (RPDO deadline, master heartbeat consumer) comes within 1 s.
   finish_case bus_off 2
-  shown bus_off '^bus error' 0 after-busoff --drives-capture "$tmp/bus_off.drives.dump.log" || return
+  shown bus_off '^bus error' 0 after-busoff --drives-capture "$tmp/bus_off.drives.dump.log" \
+    --fault-from "$fault_at" || return
   in_log bus_off faults.log '"cause":"bus error","reaction":"STO"' || fail "bus_off: no bus error in the fault log"
   in_log bus_off ctl.log "bus: .*bus-off 1;" || fail "bus_off: the master did not report the bus-off"
 }
