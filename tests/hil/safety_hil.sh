@@ -90,13 +90,13 @@ fail() {  # the logs of the case running now (its name is in $tmp/current)
 # failure). What holds whatever stopped the loop is checked on every attempt: no target
 # torque above the limit on the wire, torque off at the end, the capture complete.
 config=$config_in
-fault_at=0.2
+fault_at=0.1
 attempts=4
 stale_cycles=$(sed -n 's/^ *stale_feedback_cycles: *\([0-9]*\).*/\1/p' "$config")
 [[ -n $stale_cycles ]] || { echo "FAIL: no safety.watchdogs.stale_feedback_cycles in $config"; exit 1; }
 
 # 20 mm in 1 s from the home pose (0, 0.25, 0), then still: target torques of 0.07-0.3 N m
-# from 50 ms on (above the wire's resolution, one per mille of the rated torque), so torque
+# from 50 ms on (0.17 N m at the faults' 0.1 s) (above the wire's resolution, one per mille of the rated torque), so torque
 # off shows on the wire. A program, not the configuration: it changes no limit.
 program=$tmp/move.yaml
 cat >"$program" <<'YAML'
@@ -302,13 +302,13 @@ after_line() {
 }
 case_sigint() {  # 3. SIGINT to the controller: a signal e-stop request, SS1 then torque off.
   run_case sigint -- --await-stop 25 --expect ss1
-  after_line "$tmp/sigint.sim.log" "operation enabled" 0.1 kill -INT "$ctl_pid"
+  after_line "$tmp/sigint.sim.log" "operation enabled" "$fault_at" kill -INT "$ctl_pid"
   finish_case sigint
   shown sigint '^e-stop \(signal\)' 0 torque-off-at-end || return
 }
 case_drives_gone() {  # 4. The drives vanish (the emulator process stops answering): STO.
   run_case drives_gone -- --await-stop 25 --expect sto
-  after_line "$tmp/drives_gone.sim.log" "operation enabled" 0.1 kill -STOP "$sim_pid" &&
+  after_line "$tmp/drives_gone.sim.log" "operation enabled" "$fault_at" kill -STOP "$sim_pid" &&
     sim_frozen=1
   finish_case drives_gone
   # Stale feedback is also what a frozen guest causes: the stop must come after the drives'
@@ -367,9 +367,9 @@ case_tpdo_glitch() {  # 7. Short losses and delays below the watchdog: the machi
   # Below the shipped watchdog ($stale_cycles cycles without a fresh position): two single
   # losses of 182h, and 183h 1.5 ms late 25 times in a row (each arrives a cycle late: one
   # a cycle, never $stale_cycles cycles without one). Over by $glitch_end s.
-  local glitch_end=0.4 first at
-  gw_rules=("drop 0x182 from=$fault_at count=1" "drop 0x182 from=0.25 count=1"
-    "delay 0x183 ms=1.5 from=0.3 count=25")
+  local glitch_end=0.3 first at
+  gw_rules=("drop 0x182 from=$fault_at count=1" "drop 0x182 from=0.15 count=1"
+    "delay 0x183 ms=1.5 from=0.2 count=25")
   run_case tpdo_glitch -- --await-stop 2 --expect sto
   finish_case tpdo_glitch
   first=$(first_stop tpdo_glitch)
@@ -400,8 +400,8 @@ case_tpdo_glitch() {  # 7. Short losses and delays below the watchdog: the machi
     in_log tpdo_glitch ctl.log "no stop within" || fail "tpdo_glitch: the selftest saw a stop"
   fi
   acted_exactly tpdo_glitch "drop 0x182 from=$fault_at count=1" 1
-  acted_exactly tpdo_glitch "drop 0x182 from=0.25 count=1" 1
-  acted_exactly tpdo_glitch "delay 0x183 ms=1.5 from=0.3 count=25" 25
+  acted_exactly tpdo_glitch "drop 0x182 from=0.15 count=1" 1
+  acted_exactly tpdo_glitch "delay 0x183 ms=1.5 from=0.2 count=25" 25
   in_log tpdo_glitch ctl.log "node 2: .*missed [1-9]" || fail "tpdo_glitch: drive 2's losses not counted"
 }
 case_rpdo_lost() {  # 8. Drive 2 gets no target torque: its RPDO watchdog faults it, STO.
