@@ -25,7 +25,8 @@
 # does instead of widening the configuration:
 #   - a stall probe (SCHED_FIFO 99, above every process of the test) records the intervals in
 #     which the guest as a whole did not run; a wire gap above the deadline is excused only when
-#     it is within the deadline without those intervals (check_serve_wire.py --stalls). What
+#     it is within the deadline without those intervals (check_serve_wire.py --stalls); when the
+#     guest was frozen more than half the service's life, the gaps are a NOTE (--max-frozen). What
 #     does not depend on timing is asserted as it is: every drive's RPDO in every cycle, the
 #     torque limit, the enable episodes, the log and fault log of each step
 #   - a program stopped by a timing watchdog alone (deadline misses, stale feedback, drive lost,
@@ -84,16 +85,25 @@ fail() {
 }
 # count PATTERN: lines of the service's log matching PATTERN (grep -E)
 count() { grep -cE -- "$1" "$tmp/run.log"; }
-# wait_count PATTERN N SECONDS: 0 once the service's log has N lines matching PATTERN. Polled
-# every 0.2 s: each poll is a grep process, and the guest's SCHED_OTHER share is small.
-wait_count() {
-  local n=$(($3 * 5))
-  for ((i = 0; i < n; ++i)); do
-    [[ $(count "$1") -ge $2 ]] && return 0
+# wait_new SECONDS PATTERN BASELINE [PATTERN BASELINE]...: waits until the service's log has
+# more than BASELINE lines matching one of the PATTERNs (grep -E); echoes the number (1, 2, ..)
+# of the first that has, or returns 1 after SECONDS. Polled every 0.2 s for a time (bash's
+# SECONDS), not a count of polls: each poll is a grep process, the guest's SCHED_OTHER share is
+# small, and it answers commands seconds late when the host is loaded.
+wait_new() {
+  local until=$((SECONDS + $1)) i
+  shift
+  local pairs=("$@")
+  while :; do
+    for ((i = 0; 2 * i < ${#pairs[@]}; ++i)); do
+      [[ $(count "${pairs[2 * i]}") -gt ${pairs[2 * i + 1]} ]] && { echo $((i + 1)); return 0; }
+    done
+    ((SECONDS < until)) || return 1
     sleep 0.2
   done
-  return 1
 }
+# wait_count PATTERN N SECONDS: 0 once the service's log has N lines matching PATTERN.
+wait_count() { wait_new "$3" "$1" $(($2 - 1)) >/dev/null; }
 signed() { "$dualv" "$@" --key "$key" --lcm "$url" >>"$tmp/commands.log" 2>&1; }
 
 fifo() {  # fifo PRIO: a chrt prefix where permitted (root in the guest), else nothing
@@ -229,35 +239,27 @@ started_or_refused() {
   local starts refused
   starts=$(count "$3") refused=$(count "start of .* refused")
   signed start "$4"
-  for ((w = 0; w < 100; ++w)); do
-    [[ $(count "$3") -gt $starts ]] && return 0
-    if [[ $(count "start of .* refused") -gt $refused ]]; then
-      refused_by_timing "$1" "$2"
-      return 1
-    fi
-    sleep 0.2
-  done
-  fail "$1: the signed start of $4 did not start"
+  case $(wait_new 60 "$3" "$starts" "start of .* refused" "$refused") in
+    1) return 0 ;;
+    2) refused_by_timing "$1" "$2"; return 1 ;;
+    *) fail "$1: the signed start of $4 neither started nor was refused in 60 s" ;;
+  esac
 }
 # run_paper STEP: a signed start of the program until it completes (timing-only stops and
 # starts refused after a timing-only stop retried, 3 attempts; then a NOTE)
 run_paper() {
-  local done0 stopped0 f0 refused0 starts0
+  local done0 stopped0 f0 refused0 starts0 ended
   for attempt in 1 2 3; do
     done0=$(count "$pname done") stopped0=$(count "$pname STOPPED") f0=$(($(faults_lines) + 1))
     refused0=$(count "start of .* refused")
     starts0=$(count "^dualv run: starting .*$pname \(key lab1\)")
     signed start "$program"
-    for ((w = 0; w < 600; ++w)); do
-      [[ $(count "$pname (done|STOPPED)") -gt $((done0 + stopped0)) ]] && break
-      [[ $(count "start of .* refused") -gt $refused0 ]] && break
-      sleep 0.2
-    done
-    if [[ $(count "start of .* refused") -gt $refused0 ]]; then
+    ended=$(wait_new 180 "$pname (done|STOPPED)" $((done0 + stopped0)) "start of .* refused" "$refused0")
+    if [[ $ended == 2 ]]; then
       refused_by_timing "$1" "$attempt"
       continue
     fi
-    [[ $w -lt 600 ]] || fail "$1: the signed start of $pname did not end in 120 s"
+    [[ $ended == 1 ]] || fail "$1: the signed start of $pname did not end in 180 s"
     [[ $(count "^dualv run: starting .*$pname \(key lab1\)") -gt $starts0 ]] ||
       fail "$1: $pname ended without a 'starting ... $pname (key lab1)' line"
     [[ $(count "$pname done") -gt $done0 ]] && return 0
@@ -351,11 +353,7 @@ starts4=$(count "^dualv run: starting .*$pname") resets4=$(count "reset \(key la
 start_pid=$!
 "$dualv" estop --lcm "$url" >>"$tmp/commands.log" 2>&1
 wait "$start_pid"
-for ((w = 0; w < 100; ++w)); do
-  [[ $(count "start of .* refused") -gt $refused4 ]] && break
-  [[ $(count "$pname (done|STOPPED)") -gt $((done4 + stopped4)) ]] && break
-  sleep 0.2
-done
+wait_new 60 "start of .* refused" "$refused4" "$pname (done|STOPPED)" $((done4 + stopped4)) >/dev/null
 if [[ $(count "start of .* refused") -gt $refused4 ]]; then
   grep "start of .* refused" "$tmp/run.log" | tail -n 1 | sed 's/^/  step 4: /'
   sleep 2
@@ -438,7 +436,9 @@ enables=4
 capture=$tmp/dump/capture.log
 [[ -s "$capture" ]] || fail "no capture"
 grep -q " 0 lost" "$tmp/capture.err" || fail "the capture lost frames: $(tail -n 1 "$tmp/capture.err")"
-"$py" "$here/check_serve_wire.py" --config "$config" --stalls "$tmp/stalls.txt" \
+# A guest frozen more than half the time shows nothing of the loop's timing: its gaps are a
+# NOTE there (check_serve_wire.py --max-frozen), every other wire check holds.
+"$py" "$here/check_serve_wire.py" --config "$config" --stalls "$tmp/stalls.txt" --max-frozen 0.5 \
   --expect-enables "$enables" "$capture" || fail "wire check"
 echo "PASS: serve over vcan with the shipped configuration: idle state published; paper done;" \
   "stream done; e-stop during preparation refused; e-stop while running SS1 -> STO; reset;" \
