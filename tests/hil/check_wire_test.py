@@ -88,11 +88,9 @@ class CheckWire(unittest.TestCase):
         self.assertIn("never enabled", out)
 
     def test_torque_above_the_limit_fails_whatever_stopped_the_loop(self):
-        cap = Capture()
-        cap.cycles(10, DISABLED, 0)
-        cap.cycles(20, ENABLED, 1300)  # 65 N m at 50 N m rated: above safety.torque.max 60
-        cap.cycles(20, DISABLED, 0)
-        rc, out = check(cap, "--mode", "torque-off-at-end", "--fault-from", "0.1")
+        # 65 N m at 50 N m rated: above safety.torque.max 60; stopped before the fault.
+        rc, out = check(run_then_stop(20, per_mille=1300), "--mode", "torque-off-at-end",
+                        "--fault-from", "0.1")
         self.assertEqual(rc, 1, out)
         self.assertIn("above the limit", out)
 
@@ -111,25 +109,24 @@ class CheckWire(unittest.TestCase):
         self.assertEqual(rc, 3, out)
         self.assertIn("while they still answered", out)
 
-    def test_torque_after_an_emcy_fails(self):
+    @staticmethod
+    def emcy_then_stop(cycles_with_torque):
+        """Moving 0.15 s, an EMCY 2310h from node 3, CYCLES_WITH_TORQUE more, then stopped."""
         cap = Capture()
         cap.cycles(10, DISABLED, 0)
         cap.cycles(150, ENABLED, 4)
         cap.emcy(3, 0x2310)
-        cap.cycles(5, ENABLED, 4)  # still torque 3 SYNCs and more after the EMCY
+        cap.cycles(cycles_with_torque, ENABLED, 4)
         cap.cycles(20, DISABLED, 0)
-        rc, out = check(cap, "--mode", "after-emcy", "--fault-from", "0.1")
+        return check(cap, "--mode", "after-emcy", "--fault-from", "0.1")
+
+    def test_torque_after_an_emcy_fails(self):
+        rc, out = self.emcy_then_stop(5)  # torque 3 SYNCs and more after the EMCY
         self.assertEqual(rc, 1, out)
         self.assertIn("SYNCs after the trigger", out)
 
     def test_torque_off_within_two_cycles_of_an_emcy_passes(self):
-        cap = Capture()
-        cap.cycles(10, DISABLED, 0)
-        cap.cycles(150, ENABLED, 4)
-        cap.emcy(3, 0x2310)
-        cap.cycles(1, ENABLED, 4)
-        cap.cycles(20, DISABLED, 0)
-        rc, out = check(cap, "--mode", "after-emcy", "--fault-from", "0.1")
+        rc, out = self.emcy_then_stop(1)
         self.assertEqual(rc, 0, out)
 
 
