@@ -63,6 +63,17 @@ stop_causes() {
     sed -nE 's/.*"text":"([^"]*)".*/\1/p' | sed -E 's/ -> [A-Z0-9]+$//'
 }
 
+# first_stop_causes: the causes (as stop_causes prints them) of the first stop among the
+# faults.jsonl lines on stdin: every stopping fault logged in the cycle of the first, as the
+# safety filter found them together (bus-off is a bus error and every drive lost at once).
+# Faults logged later while stopped (a monitor reading a coasting robot after feedback came
+# back) did not cause the stop.
+first_stop_causes() {
+  grep -E '"event":"fault".*"reaction":"(SS1|STO)"' |
+    awk -F'"cycle":' 'NR == 1 { split($2, a, ","); c = a[1] } { split($2, b, ","); if (b[1] == c) print }' |
+    stop_causes
+}
+
 # timing_stops_only: 0 when the stopping faults on stdin (one a line: a faults.jsonl "text"
 # without its " -> STO", e.g. "stale feedback drive 1: 3 (limit 3)") are all stops by the
 # loop's own timing watchdogs (safety/fault.hpp: consecutive deadline misses, stale feedback,

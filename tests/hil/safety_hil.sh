@@ -203,15 +203,10 @@ finish_case() {  # finish_case NAME [SECONDS_TO_LET_THE_DRIVES_RUN_ON]: sets st_
   [[ -f "$tmp/$name.gw.log" ]] && grep -E "rule .*(acts|acted)|stopped" "$tmp/$name.gw.log"
   return 0
 }
-# first_stop NAME: the stopping faults of the case's first stop (hil_lib.sh stop_causes; every
-# one logged in the cycle of the first, as the filter found them together: bus-off is a bus
-# error and every drive lost at once), one a line; the host's own stop at the end of an
-# --await-stop without one (e-stop (CLI)) left out.
+# first_stop NAME: the causes of the case's first stop (hil_lib.sh first_stop_causes), one a
+# line; the host's own stop at the end of an --await-stop without one (e-stop (CLI)) left out.
 first_stop() {
-  grep -E '"event":"fault".*"reaction":"(SS1|STO)"' "$tmp/$1.faults.log" 2>/dev/null |
-    grep -v '"cause":"e-stop (CLI)"' |
-    awk -F'"cycle":' 'NR == 1 { split($2, a, ","); c = a[1] } { split($2, b, ","); if (b[1] == c) print }' |
-    stop_causes
+  grep -v '"cause":"e-stop (CLI)"' "$tmp/$1.faults.log" 2>/dev/null | first_stop_causes
 }
 # shown NAME EXPECTED_CAUSE_ERE SELFTEST_EXIT WIRE_MODE [CHECK_WIRE_ARGS...]: 0 when the
 # case's fault was answered (its first stop matches EXPECTED_CAUSE_ERE and the wire check

@@ -199,9 +199,9 @@ for boot in 1 2 3; do
 done
 
 # Timing-watchdog stops (what a guest freeze causes), not what this test checks: see above.
-timing_only() {  # timing_only FIRST_LINE: 0 when every stopping fault from that line of
-  # faults.jsonl on is a timing watchdog's
-  tail -n "+$1" "$tmp/out/faults.jsonl" 2>/dev/null | stop_causes | timing_stops_only  # hil_lib.sh
+timing_only() {  # timing_only FIRST_LINE: 0 when the first stop from that line of faults.jsonl
+  # on was a timing watchdog's (what the loop detected later while stopped did not stop it)
+  tail -n "+$1" "$tmp/out/faults.jsonl" 2>/dev/null | first_stop_causes | timing_stops_only  # hil_lib.sh
 }
 faults_lines() { [[ -f "$tmp/out/faults.jsonl" ]] && wc -l <"$tmp/out/faults.jsonl" || echo 0; }
 last_reset_f=1  # the first line of faults.jsonl after the test's last signed reset
