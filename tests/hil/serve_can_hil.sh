@@ -388,7 +388,10 @@ for attempt in 1 2 3; do
   [[ $(count "$pname done") -eq $done5 ]] || fail "step 5: the program completed despite the e-stop"
   grep "$pname STOPPED" "$tmp/run.log" | tail -n 1 | sed 's/^/  step 5: /'
   attempt_faults=$(tail -n "+$f5" "$tmp/out/faults.jsonl" 2>/dev/null)
-  if grep '"event":"fault"' <<<"$attempt_faults" | grep '"cause":"e-stop (LCM)"' | grep -q '"reaction":"SS1"'; then
+  # The e-stop must be what stopped the program (an e-stop received after a timing stop, while
+  # stopped, is logged too).
+  if first_stop_causes <<<"$attempt_faults" | grep -q '^e-stop (LCM)$' &&
+    grep '"event":"fault"' <<<"$attempt_faults" | grep '"cause":"e-stop (LCM)"' | grep -q '"reaction":"SS1"'; then
     new=$attempt_faults
     break
   fi
