@@ -89,7 +89,7 @@ for ((try = 1; try <= 8 && shown == 0; ++try)); do
   "$dualv" stream --key "$key" --lcm "$url" --circle 0.01 --rate 100 --duration 0 \
     >"$tmp/stream2.log" 2>&1 &
   streamer=$!
-  wait_for_lines "$tmp/run.log" "starting stream\|refused: the last stop" $((starts + 1)) 10 ||
+  wait_for_lines "$tmp/run.log" "starting stream\|refused: the last stop" $((starts + 1)) 30 ||
     fail "the second stream got no answer"
   if grep "starting stream\|refused: the last stop" "$tmp/run.log" | tail -1 | grep -q refused; then
     kill -KILL "$streamer"
@@ -127,5 +127,5 @@ done
 
 # 3. After that stop only a signed reset re-enables starts.
 "$dualv" stream --key "$key" --lcm "$url" --circle 0.01 --duration 0.5 >/dev/null 2>&1
-wait_for "$tmp/run.log" "refused: the last stop has not been reset" 10 || fail "a stream started without a reset"
+wait_for "$tmp/run.log" "refused: the last stop has not been reset" 30 || fail "a stream started without a reset"
 echo "PASS: reset needed after a stop; killed streamer -> SS1 (command stream stale): $([[ $shown -eq 1 ]] && echo shown || echo "NOTE above"); complete stream: $([[ $(lines_matching "$tmp/run.log" "stream done") -gt 0 ]] && echo shown || echo "NOTE above")"
