@@ -104,7 +104,16 @@ wait_new() {
 }
 # wait_count PATTERN N SECONDS: 0 once the service's log has N lines matching PATTERN.
 wait_count() { wait_new "$3" "$1" $(($2 - 1)) >/dev/null; }
-signed() { "$dualv" "$@" --key "$key" --lcm "$url" >>"$tmp/commands.log" 2>&1; }
+# The operator's commands (and step 3's streamer) run at SCHED_FIFO 60 where permitted, below
+# the loop (80) and the emulator (70): in the guest a SCHED_OTHER process gets a tenth of the
+# CPU (the RT throttling below) and reaches the service seconds late, by when the idle loop
+# may have latched a timing stop again after the reset before it. A test tool's priority,
+# not the configuration.
+cmd() {  # cmd ARGS...: dualv ARGS..., its output appended to commands.log
+  # shellcheck disable=SC2046
+  $(fifo 60) "$dualv" "$@" >>"$tmp/commands.log" 2>&1
+}
+signed() { cmd "$@" --key "$key" --lcm "$url"; }
 
 fifo() {  # fifo PRIO: a chrt prefix where permitted (root in the guest), else nothing
   if [[ $(id -u) -eq 0 ]] && command -v chrt >/dev/null && chrt -f "$1" true 2>/dev/null; then
@@ -312,9 +321,7 @@ run_paper "step 2"
 # 3. Idle ~1 s, then a stream ended by its signed stop. `dualv stream` sends its signed start
 # and then its setpoints at once, as an operator runs it (started first and the streamer
 # after, the stream's watchdog, 0.1 s from the start, would fire before a process started in
-# the guest sends anything). It runs at SCHED_FIFO 60, below the loop and the emulator: in the
-# guest a SCHED_OTHER process gets a tenth of the CPU (the RT throttling above) and would send
-# late. A stream stopped as "command stream stale" while the streamer still ran is guest
+# the guest sends anything). It runs at SCHED_FIFO 60 as the commands do (cmd). A stream stopped as "command stream stale" while the streamer still ran is guest
 # timing too (lcm_stream_hil.sh; the exact watchdog: tests/apps/stream_closed_loop_test.cpp).
 sleep 1
 streamed=0
@@ -355,9 +362,9 @@ fi
 # before it), and the step is a NOTE (guest timing), its stop checked on the wire.
 done4=$(count "$pname done") stopped4=$(count "$pname STOPPED") refused4=$(count "start of .* refused")
 starts4=$(count "^dualv run: starting .*$pname") resets4=$(count "reset \(key lab1\)")
-"$dualv" start "$program" --key "$key" --lcm "$url" >>"$tmp/commands.log" 2>&1 &
+signed start "$program" &
 start_pid=$!
-"$dualv" estop --lcm "$url" >>"$tmp/commands.log" 2>&1
+cmd estop --lcm "$url"
 wait "$start_pid"
 wait_new 60 "start of .* refused" "$refused4" "$pname (done|STOPPED)" $((done4 + stopped4)) >/dev/null
 if [[ $(count "start of .* refused") -gt $refused4 ]]; then
@@ -383,7 +390,7 @@ for attempt in 1 2 3; do
   stopped5=$(count "$pname STOPPED") done5=$(count "$pname done") f5=$(($(faults_lines) + 1))
   started_or_refused "step 5" "$attempt" "^dualv run: starting .*$pname" "$program" || continue
   sleep 1.5
-  "$dualv" estop --lcm "$url" >>"$tmp/commands.log" 2>&1
+  cmd estop --lcm "$url"
   wait_count "$pname (done|STOPPED)" $((stopped5 + done5 + 1)) 60 || fail "step 5: no end after the e-stop"
   [[ $(count "$pname done") -eq $done5 ]] || fail "step 5: the program completed despite the e-stop"
   grep "$pname STOPPED" "$tmp/run.log" | tail -n 1 | sed 's/^/  step 5: /'
