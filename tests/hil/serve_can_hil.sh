@@ -321,8 +321,9 @@ run_paper "step 2"
 # 3. Idle ~1 s, then a stream ended by its signed stop. `dualv stream` sends its signed start
 # and then its setpoints at once, as an operator runs it (started first and the streamer
 # after, the stream's watchdog, 0.1 s from the start, would fire before a process started in
-# the guest sends anything). It runs at SCHED_FIFO 60 as the commands do (cmd). A stream stopped as "command stream stale" while the streamer still ran is guest
-# timing too (lcm_stream_hil.sh; the exact watchdog: tests/apps/stream_closed_loop_test.cpp).
+# the guest sends anything). It runs at SCHED_FIFO 60 as the commands do (cmd). A stream
+# stopped as "command stream stale" while the streamer still ran is guest timing too
+# (lcm_stream_hil.sh; the exact watchdog: tests/apps/stream_closed_loop_test.cpp).
 sleep 1
 streamed=0
 for attempt in 1 2 3; do
