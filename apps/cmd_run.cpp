@@ -415,9 +415,11 @@ int run(const RunArgs& args) {
   const auto leave_log = [](const std::string& line) { fmt::print("  {}\n", line); };
   if (args.serve) {
     const int rc = serve(cfg, machine, *commands, service);
-    machine.shutdown();
+    const control::RunReport loop_report = machine.shutdown();
     cycle_clock.end_cycle();  // the loop has ended: real time again for the shut-down
     if (drives) drives->shut_down(leave_log);  // disabled, then as can.on_exit says
+    // How the loop kept its time over the service's life, idle included.
+    fmt::print("\n{}", control::format_loop_stats(loop_report.stats));
     return rc;
   }
 

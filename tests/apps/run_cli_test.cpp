@@ -17,6 +17,7 @@
 #include <fstream>
 #include <functional>
 #include <lcm/lcm-cpp.hpp>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -161,6 +162,13 @@ TEST_F(RunCli, SignedStartAcceptedByOneServiceIsRefusedByTheNextOnTheSameState) 
   EXPECT_NE(first_log.find("replay state " + state.string() + ": created empty"), std::string::npos)
       << first_log;
   EXPECT_EQ(count_of(first_log, "command accepted: start signed by 'lab1'"), 1u) << first_log;
+  // At its end the service reports how its loop kept time (cycle time, lateness, misses) over
+  // its whole life: idle cycles included, so more than the program's 200.
+  std::smatch loop;
+  ASSERT_TRUE(std::regex_search(first_log, loop, std::regex(R"(loop: (\d+) cycles at 1000 Hz)")))
+      << first_log;
+  EXPECT_GT(std::stol(loop[1]), 200) << first_log;
+  EXPECT_NE(first_log.find("  lateness "), std::string::npos) << first_log;
 
   // The restart: a new process on the same state file.
   auto second = serve("second", state);
