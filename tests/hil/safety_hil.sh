@@ -83,8 +83,8 @@ fail() {  # the logs of the case running now (its name is in $tmp/current)
 # after tens to thousands of cycles), so every fault comes early: $fault_at s after the master
 # first enabled the drives (`dualv sim --times-from-enable` and the gateway's time base), into
 # a move that starts at once. What a case shows needs the loop still running when its fault
-# comes: an attempt whose first stop is a timing watchdog's (hil_lib.sh timing_stops_only)
-# and could not be the fault's answer (another cause, or on the wire a stop before the fault:
+# comes: an attempt whose first stop is a timing watchdog's (hil_lib.sh first_stop_causes,
+# timing_stops_only) and could not be the fault's answer (another cause, or on the wire a stop before the fault:
 # check_wire.py --fault-from / --drives-silent) is tried again, up to $attempts attempts; when
 # every attempt ended so, a NOTE gives their causes and the case is not shown here (no
 # failure). What holds whatever stopped the loop is checked on every attempt: no target
@@ -96,8 +96,9 @@ stale_cycles=$(sed -n 's/^ *stale_feedback_cycles: *\([0-9]*\).*/\1/p' "$config"
 [[ -n $stale_cycles ]] || { echo "FAIL: no safety.watchdogs.stale_feedback_cycles in $config"; exit 1; }
 
 # 20 mm in 1 s from the home pose (0, 0.25, 0), then still: target torques of 0.07-0.3 N m
-# from 50 ms on (0.17 N m at the faults' 0.1 s) (above the wire's resolution, one per mille of the rated torque), so torque
-# off shows on the wire. A program, not the configuration: it changes no limit.
+# from 50 ms on, 0.17 N m at the faults' 0.1 s (above the wire's resolution, one per mille of
+# the rated torque), so torque off shows on the wire. A program, not the configuration: it
+# changes no limit.
 program=$tmp/move.yaml
 cat >"$program" <<'YAML'
 program:
