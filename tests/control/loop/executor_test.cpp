@@ -457,8 +457,11 @@ TEST(Executor, OnItsOwnThreadTheSupervisorStartsAStreamStopsItAndShutsTheLoopDow
   while (ex.snapshot().cycle < 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   const std::uint64_t id = ex.start(ex.prepare_stream(
       robot().trajectory.streaming, robot().trajectory.limits.workspace, ex.estop_epoch()));
-  ASSERT_TRUE(wait_for(K::kStarted));
+  // The end of the stream right behind its start, in the same queue (taken in that order):
+  // a supervisor thread slowed down past the stream watchdog (0.1 s without a setpoint, a
+  // loaded machine) between the two would have the stream stopped as stale instead.
   ASSERT_TRUE(ex.submit(LoopCommand::Kind::kEndStream));
+  ASSERT_TRUE(wait_for(K::kStarted));
   ASSERT_TRUE(wait_for(K::kFinished));
   ASSERT_TRUE(ex.submit(LoopCommand::Kind::kShutdown));
   ASSERT_TRUE(wait_for(K::kLoopEnded));
