@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "safety/fault_injector.hpp"
+#include "safety/fault_log.hpp"
 #include "sim/plant.hpp"
 #include "sim/sim_actuator_set.hpp"
 #include "tests/safety/paper_fixture.hpp"
@@ -291,6 +292,20 @@ TEST(Executor, StopIsSs1ForAProgramAndANormalEndForAStream) {
   EXPECT_EQ(r.executor.snapshot().latched, 0u);
 }
 
+// A stream ended in the cycle it starts in (both commands queued before the loop takes
+// them): it starts and ends normally, no stale stream.
+TEST(Executor, AStreamEndedInTheCycleItStartsFinishesNormally) {
+  LoopRig r;
+  r.steps(2);
+  const std::uint64_t sid = r.executor.start(r.executor.prepare_stream(
+      robot().trajectory.streaming, robot().trajectory.limits.workspace, r.executor.estop_epoch()));
+  ASSERT_TRUE(r.executor.submit(LoopCommand::Kind::kEndStream));
+  ASSERT_NE(r.until(K::kStarted, sid, 2), nullptr);
+  ASSERT_NE(r.until(K::kFinished, sid, 3000), nullptr);
+  EXPECT_EQ(r.find(K::kStopped, sid), nullptr);
+  EXPECT_EQ(r.executor.snapshot().latched, 0u);
+}
+
 TEST(Executor, RefusesAStartWhileBusyOrWhenTheRobotMovedSincePreparation) {
   LoopRig r;
   r.steps(2);
@@ -443,33 +458,48 @@ TEST(Executor, OnItsOwnThreadTheSupervisorStartsAStreamStopsItAndShutsTheLoopDow
   thread.launch();
   thread.go(ex);
   std::vector<LoopEvent> events;
-  auto wait_for = [&](K kind) {
+  auto wait_for_either = [&](K kind, K other) {
     for (int k = 0; k < 30000; ++k) {  // up to 30 s on a loaded machine
       LoopEvent e;
       while (ex.poll_event(e)) events.push_back(e);
       for (const auto& e2 : events)
-        if (e2.kind == kind) return true;
+        if (e2.kind == kind || e2.kind == other) return true;
       ex.collect();
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
     return false;
   };
+  auto wait_for = [&](K kind) { return wait_for_either(kind, kind); };
   while (ex.snapshot().cycle < 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   const std::uint64_t id = ex.start(ex.prepare_stream(
       robot().trajectory.streaming, robot().trajectory.limits.workspace, ex.estop_epoch()));
-  // The end of the stream right behind its start, in the same queue (taken in that order):
-  // a supervisor thread slowed down past the stream watchdog (0.1 s without a setpoint, a
-  // loaded machine) between the two would have the stream stopped as stale instead.
+  // The end of the stream right behind its start in the same queue (taken in that order): a
+  // supervisor slowed past the stream watchdog (0.1 s without a setpoint) between the two
+  // would have it stopped as stale.
   ASSERT_TRUE(ex.submit(LoopCommand::Kind::kEndStream));
   ASSERT_TRUE(wait_for(K::kStarted));
-  ASSERT_TRUE(wait_for(K::kFinished));
+  // It ends normally; on a machine so loaded that this thread, not real-time here, misses its
+  // deadlines, the safety filter stops it on those misses first (what this test asserts is
+  // the order through the queues, whatever the timing: the same end on simulated time,
+  // AStreamEndedInTheCycleItStartsFinishesNormally).
+  ASSERT_TRUE(wait_for_either(K::kFinished, K::kStopped));
+  bool finished = false;
+  for (const auto& e : events) {
+    if (e.kind == K::kFinished) finished = true;
+    if (e.kind == K::kStopped) {
+      EXPECT_NE(e.latched & safety::bit(safety::Fault::kDeadlineMisses), 0u)
+          << "stopped by " << safety::describe_faults(e.latched);
+    }
+  }
   ASSERT_TRUE(ex.submit(LoopCommand::Kind::kShutdown));
   ASSERT_TRUE(wait_for(K::kLoopEnded));
   const RunReport report = thread.join();
   EXPECT_GT(report.cycles, 0);
   EXPECT_EQ(events.front().kind, K::kStarted);
   EXPECT_EQ(events.front().id, id);
-  EXPECT_EQ(ex.snapshot().mode, LoopMode::kIdle);
+  if (finished) {
+    EXPECT_EQ(ex.snapshot().mode, LoopMode::kIdle);
+  }
 }
 
 }  // namespace
