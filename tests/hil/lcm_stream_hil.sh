@@ -89,8 +89,15 @@ for ((try = 1; try <= 8 && shown == 0; ++try)); do
   "$dualv" stream --key "$key" --lcm "$url" --circle 0.01 --rate 100 --duration 0 \
     >"$tmp/stream2.log" 2>&1 &
   streamer=$!
-  wait_for_lines "$tmp/run.log" "starting stream\|refused: the last stop" $((starts + 1)) 30 ||
-    fail "the second stream got no answer"
+  if ! wait_for_lines "$tmp/run.log" "starting stream\|refused: the last stop" $((starts + 1)) 30; then
+    # Seen in a loaded guest: its SCHED_OTHER processes starved by the real-time loop, the
+    # streamer's start and setpoints reached the service seconds late (refused as stale).
+    kill -KILL "$streamer"
+    wait "$streamer" 2>/dev/null
+    streamer=
+    echo "NOTE: try $try: no answer to the stream's start in 30 s (the guest's commands came late)"
+    continue
+  fi
   if grep "starting stream\|refused: the last stop" "$tmp/run.log" | tail -1 | grep -q refused; then
     kill -KILL "$streamer"
     wait "$streamer" 2>/dev/null
