@@ -209,6 +209,17 @@ finish_case() {  # finish_case NAME [SECONDS_TO_LET_THE_DRIVES_RUN_ON]: sets st_
 first_stop() {
   grep -v '"cause":"e-stop (CLI)"' "$tmp/$1.faults.log" 2>/dev/null | first_stop_causes
 }
+# wire_check NAME MODE [CHECK_WIRE_ARGS...]: check_wire.py on the case's capture; its status
+# (0, 1, or 3: stopped before the fault), its output printed and kept in NAME.wire.log.
+wire_check() {
+  local name=$1 mode=$2 rc
+  shift 2
+  "$py" "$here/check_wire.py" --config "$config" --mode "$mode" "$@" "$tmp/$name.dump.log" \
+    >"$tmp/$name.wire.log"
+  rc=$?
+  cat "$tmp/$name.wire.log"
+  return $rc
+}
 # shown NAME EXPECTED_CAUSE_ERE SELFTEST_EXIT WIRE_MODE [CHECK_WIRE_ARGS...]: 0 when the
 # case's fault was answered (its first stop matches EXPECTED_CAUSE_ERE and the wire check
 # passed: the case's own checks follow); 1 otherwise, after fail() or with $outcome set to
@@ -218,10 +229,8 @@ shown() {
   local name=$1 expected=$2 expect_rc=$3 mode=$4 first rc
   shift 4
   first=$(first_stop "$name")
-  "$py" "$here/check_wire.py" --config "$config" --mode "$mode" "$@" "$tmp/$name.dump.log" \
-    >"$tmp/$name.wire.log"
+  wire_check "$name" "$mode" "$@"
   rc=$?
-  cat "$tmp/$name.wire.log"
   if [[ $rc -ne 0 && $rc -ne 3 ]]; then
     fail "$name: wire check ($mode)"
     return 1
@@ -335,8 +344,7 @@ case_host_faults() {  # 5. Host-injected faults and limit tests, as commissionin
   [[ ${#rows[@]} -eq ${#host_todo[@]} ]] ||
     fail "host_faults: ${#rows[@]} scenario rows for ${#host_todo[@]} scenarios"
   # Whatever stopped each scenario: no torque above the limit, torque off at the end.
-  "$py" "$here/check_wire.py" --config "$config" --mode torque-off-at-end "$tmp/host_faults.dump.log" ||
-    fail "host_faults: wire check"
+  wire_check host_faults torque-off-at-end || fail "host_faults: wire check"
   host_todo=("${left[@]}")
   [[ ${#left[@]} -eq 0 || $failed -ne 0 ]] || outcome="timing: ${left[*]}"
 }
@@ -369,10 +377,8 @@ case_tpdo_glitch() {  # 7. Short losses and delays below the watchdog: the machi
   run_case tpdo_glitch -- --await-stop 2 --expect sto
   finish_case tpdo_glitch
   first=$(first_stop tpdo_glitch)
-  "$py" "$here/check_wire.py" --config "$config" --mode no-stop --fault-from "$fault_at" \
-    "$tmp/tpdo_glitch.dump.log" >"$tmp/tpdo_glitch.wire.log"
+  wire_check tpdo_glitch no-stop --fault-from "$fault_at"
   local rc=$?
-  cat "$tmp/tpdo_glitch.wire.log"
   at=$(sed -n 's/^check_wire: stop \([0-9.]*\) s after.*/\1/p' "$tmp/tpdo_glitch.wire.log")
   if [[ $rc -eq 1 ]]; then
     fail "tpdo_glitch: wire check"
