@@ -56,11 +56,15 @@ timing_stops() {
   grep '"event":"fault"' | grep -qE '"cause":"(consecutive deadline misses|stale feedback)","reaction":"STO"'
 }
 
+# without_reaction: each fault text on stdin ("stale feedback drive 1: 3 (limit 3) -> STO")
+# without its " -> REACTION".
+without_reaction() { sed -E 's/ -> [A-Z0-9]+$//'; }
+
 # stop_causes: the stopping faults (reaction SS1 or STO) of the faults.jsonl lines on stdin, one a
 # line: its "text" without the " -> REACTION" (e.g. "stale feedback drive 1: 3 (limit 3)").
 stop_causes() {
   grep '"event":"fault"' | grep -E '"reaction":"(SS1|STO)"' |
-    sed -nE 's/.*"text":"([^"]*)".*/\1/p' | sed -E 's/ -> [A-Z0-9]+$//'
+    sed -nE 's/.*"text":"([^"]*)".*/\1/p' | without_reaction
 }
 
 # first_stop_causes: the causes (as stop_causes prints them) of the first stop among the

@@ -333,7 +333,7 @@ case_host_faults() {  # 5. Host-injected faults and limit tests, as commissionin
     if grep -q " PASS " <<<"$row"; then
       continue
     elif [[ $row =~ stopped\ before\ the\ injection:\ (.*)$ ]] &&
-      timing_stops_only <<<"$(sed -E 's/ -> [A-Z0-9]+$//' <<<"${BASH_REMATCH[1]}")"; then
+      timing_stops_only <<<"$(without_reaction <<<"${BASH_REMATCH[1]}")"; then
       left+=("$name")
       host_notes+=("$name: ${BASH_REMATCH[1]}")
     else
