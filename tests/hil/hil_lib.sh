@@ -71,10 +71,34 @@ stop_causes() {
 # faults.jsonl lines on stdin: every stopping fault logged in the cycle of the first, as the
 # safety filter found them together (bus-off is a bus error and every drive lost at once).
 # Faults logged later while stopped (a monitor reading a coasting robot after feedback came
-# back) did not cause the stop.
+# back) did not cause the stop. A drive seen leaving Operation enabled is its own fault
+# reaction (6007h abort connection option, sim/drive_emulator.cpp abort_connection) when its
+# EMCY 8250h (RPDO deadline) or 8130h (the master's heartbeat) is logged within
+# $tie_cycles cycles of it: the EMCY is sent at the trip, the new statusword with the next
+# SYNC's TPDO, and either may be read first. That cause is then printed as the EMCY.
+tie_cycles=20
 first_stop_causes() {
   grep -E '"event":"fault".*"reaction":"(SS1|STO)"' |
-    awk -F'"cycle":' 'NR == 1 { split($2, a, ","); c = a[1] } { split($2, b, ","); if (b[1] == c) print }' |
+    awk -v tie="$tie_cycles" '
+      { n++; line[n] = $0; match($0, /"cycle":[0-9]+/); cyc[n] = substr($0, RSTART + 8, RLENGTH - 8) + 0 }
+      match($0, /"text":"drive fault drive [0-9]+: EMCY 8(250|130)h/) {
+        t = substr($0, RSTART + 8, RLENGTH - 8); d = t; sub(/: EMCY.*/, "", d)
+        ne++; emcy_drive[ne] = d; emcy_cycle[ne] = cyc[n]; emcy_line[ne] = $0
+      }
+      END {
+        for (i = 1; i <= n; i++) {
+          if (cyc[i] != cyc[1]) continue
+          out = line[i]
+          if (match(line[i], /"text":"drive fault drive [0-9]+: left Operation enabled/)) {
+            d = substr(line[i], RSTART + 8, RLENGTH - 8); sub(/: left.*/, "", d)
+            for (k = 1; k <= ne; k++) {
+              dc = emcy_cycle[k] - cyc[i]
+              if (emcy_drive[k] == d && dc <= tie && dc >= -tie) { out = emcy_line[k]; break }
+            }
+          }
+          if (!(out in seen)) { seen[out] = 1; print out }
+        }
+      }' |
     stop_causes
 }
 
