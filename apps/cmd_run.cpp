@@ -127,6 +127,12 @@ int serve(const RobotConfig& cfg, Machine& machine, runtime::CommandChannel& com
     while (loop.poll_event(e)) {
       using K = control::LoopEvent::Kind;
       if (e.kind == K::kFinished) end_of(e, true);
+      if (e.kind == K::kStopped && e.id == 0) {  // nothing was followed: say why it stopped
+        const std::string why = e.latched ? safety::describe_faults(e.latched)
+                                          : std::string(control::to_string(e.status));
+        fmt::print("dualv run: stopped while idle (cycle {}): {}\n", e.cycle, why);
+        service.status(fmt::format("stopped while idle: {}; waiting for a signed reset", why));
+      }
       if (e.kind == K::kStopped) end_of(e, false);
       if (e.kind == K::kRefused && e.id == current.id) {
         fmt::print(stderr, "dualv run: start of '{}' refused: {}\n", current.name,
@@ -136,7 +142,8 @@ int serve(const RobotConfig& cfg, Machine& machine, runtime::CommandChannel& com
         current = {};
       }
       if (e.kind == K::kTorqueOff)
-        fmt::print("dualv run: torque off (STO); a signed reset is needed before a start\n");
+        fmt::print("dualv run: torque off (STO){}; a signed reset is needed before a start\n",
+                   e.latched ? ": " + safety::describe_faults(e.latched) : std::string());
       if (e.kind == K::kReset) {
         fmt::print(
             "dualv run: reset accepted: drives disabled, a start command is accepted again\n");

@@ -203,6 +203,35 @@ TEST_F(RunCli, SignedStartAcceptedByOneServiceIsRefusedByTheNextOnTheSameState) 
   EXPECT_EQ(count_of(second_log, "command accepted: start signed by 'lab1'"), 1u) << second_log;
 }
 
+// A stop while the service is idle says why, on its log and in the service status: the
+// operator who finds the drives off and starts refused must not have to open the fault log.
+// An e-stop is the stop that does not depend on the loop's timing.
+TEST_F(RunCli, AStopWhileIdleNamesItsCause) {
+  auto p = serve("idle", dir_ / "state" / "replay.state");
+  send("idle", [&]() -> Payloads {
+    return {encode(dualv::runtime::make_command(dualv::runtime::CommandKind::kEstop, "", wall_us(),
+                                                1, nullptr))};
+  });
+  ASSERT_GE(p->wait_for_any_text({"torque off (STO)"}, 60s), 0) << p->output();
+  p->signal(SIGTERM);
+  ASSERT_EQ(p->wait(30s), 0) << p->output();
+  const std::string log = p->output();
+  // The causes named; on a loaded machine (or an -O0 build) the loop may have stopped on its
+  // deadline misses before the e-stop came: then those are the cause it must name.
+  const auto named = [&](const std::string& pattern) {
+    std::smatch m;
+    if (!std::regex_search(log, m, std::regex(pattern))) return std::string("(no line)");
+    return m[1].str();
+  };
+  const std::string stopped = named(R"(stopped while idle \(cycle \d+\): ([^\n]+))");
+  const std::string off = named(R"(torque off \(STO\): ([^;\n]+); a signed reset is needed)");
+  for (const std::string& cause : {stopped, off})
+    EXPECT_TRUE(cause.find("e-stop (LCM)") != std::string::npos ||
+                cause.find("deadline misses") != std::string::npos)
+        << cause << "\n"
+        << log;
+}
+
 // --rate HZ re-runs the checks that depend on the rate, before anything starts: the filter of
 // the shipped configuration (velocity_cutoff_hz: 250) needs a loop above 500 Hz.
 TEST_F(RunCli, RateThatBreaksARateDependentCheckIsRefusedNamingTheKey) {
