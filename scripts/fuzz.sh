@@ -13,6 +13,8 @@
 #   --keep-going  do not stop a target at its first finding (libFuzzer -fork=1
 #              -ignore_crashes=1): a campaign goes on past a known, not yet fixed finding
 #   --jobs N   compile with N jobs and run N targets at a time (default: nproc)
+#   --workers N  run each target as N libFuzzer processes sharing its corpus (-jobs=N
+#              -workers=N), --runs split among them: a campaign of one slow target on N cores
 #   --build DIR  a build folder configured with clang and -DDUALV_FUZZ=ON already (scripts/test.sh's
 #              build/sanitize, whose tests ran under the same ASan + UBSan): only the targets are
 #              built there (default: build/fuzz, configured here)
@@ -21,11 +23,13 @@
 # campaign resumes where the last one stopped); fuzz/corpus/ is only read.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+root=$PWD
 
 ALL_TARGETS=(firmware_if_decoders sdo_client command_verifier robot_config program bus_attack eds)
 time_s=""
 runs=""
 keep_going=0
+workers=1
 jobs=$(nproc)
 targets=()
 build=""
@@ -36,13 +40,19 @@ while [ $# -gt 0 ]; do
     --jobs) jobs="$2"; shift 2 ;;
     --build) build="$2"; shift 2 ;;
     --keep-going) keep_going=1; shift ;;
-    -h|--help) sed -n '2,18p' "$0"; exit 0 ;;
+    --workers) workers="$2"; shift 2 ;;
+    -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
     -*) echo "fuzz.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
     *) targets+=("$1"); shift ;;
   esac
 done
 [ ${#targets[@]} -gt 0 ] || targets=("${ALL_TARGETS[@]}")
 [ -n "$runs" ] || [ -n "$time_s" ] || time_s=20
+[[ $workers =~ ^[1-9][0-9]*$ ]] || { echo "fuzz.sh: --workers $workers: a positive count" >&2; exit 2; }
+if [ "$workers" -gt 1 ] && [ "$keep_going" = 1 ]; then
+  echo "fuzz.sh: --workers and --keep-going do not go together (libFuzzer -jobs vs -fork)" >&2
+  exit 2
+fi
 for t in "${targets[@]}"; do
   [ -d "fuzz/corpus/$t" ] || { echo "fuzz.sh: no target '$t' (known: ${ALL_TARGETS[*]})" >&2; exit 2; }
 done
@@ -59,6 +69,7 @@ elif ! grep -q '^DUALV_FUZZ:BOOL=ON' "$build/CMakeCache.txt" 2>/dev/null; then
   exit 2
 fi
 cmake --build "$build" -j"$jobs" --target "${targets[@]/%/_fuzz}"
+build=$(realpath "$build")  # absolute: with --workers the fuzzers run in a folder of their own
 
 # Per-target options: the largest input (the configuration seed is ~11 kB, the EDS seeds ~21
 # kB: cut to 512 bytes, only an EDS's header was fuzzed, 1288 edges in a minute against 1492 in
@@ -69,14 +80,14 @@ declare -A MAX_LEN=([robot_config]=16384 [program]=4096 [bus_attack]=2048 [comma
 # fuzz_one TARGET: runs it; its summary line and verdict go to $build/logs/TARGET.{summary,failed}
 # (the targets run side by side, one per job: each libFuzzer process is single-threaded).
 fuzz_one() {
-  local t=$1 work findings log limit opts start status secs execs cov n
+  local t=$1 work findings log limit opts start status secs execs cov n log_cov i
   work="$build/corpus/$t"
   findings="$build/findings/$t"
   log="$build/logs/$t.log"
   rm -rf "$findings"  # this run's findings only
   mkdir -p "$work" "$findings" "$(dirname "$log")"
   limit=()
-  [ -n "$runs" ] && limit+=(-runs="$runs")
+  [ -n "$runs" ] && limit+=(-runs="$(( (runs + workers - 1) / workers ))")
   [ -n "$time_s" ] && limit+=(-max_total_time="$time_s")
   [ "$keep_going" = 1 ] && limit+=(-fork=1 -ignore_crashes=1)
   opts=(-timeout=120 -rss_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$findings/"
@@ -84,20 +95,38 @@ fuzz_one() {
   echo "== fuzz $t (${runs:+$runs runs }${time_s:+$time_s s}) =="
   start=$(date +%s)
   status=0
-  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-    "$build/fuzz/${t}_fuzz" "${limit[@]}" "${opts[@]}" "$work" "fuzz/corpus/$t" >"$log" 2>&1 || status=$?
+  # With --workers N, libFuzzer's N processes write fuzz-I.log in the folder it runs in (and
+  # the main process copies each into its own log as it ends: counted once, from fuzz-I.log).
+  local wdir="$build/logs/$t.workers" wlogs=("$log")
+  rm -rf "$wdir"
+  if [ "$workers" -gt 1 ]; then
+    mkdir -p "$wdir"
+    limit+=(-jobs="$workers" -workers="$workers")
+    wlogs=()
+    for ((i = 0; i < workers; ++i)); do wlogs+=("$wdir/fuzz-$i.log"); done
+  fi
+  (
+    [ "$workers" -eq 1 ] || cd "$wdir"
+    ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+      "$build/fuzz/${t}_fuzz" "${limit[@]}" "${opts[@]}" "$work" "$root/fuzz/corpus/$t"
+  ) >"$log" 2>&1 || status=$?
   secs=$(( $(date +%s) - start ))
-  execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1 || true)
+  # The sum of every worker's executions; the coverage of the one that saw most.
+  execs=$(cat "${wlogs[@]}" 2>/dev/null | sed -n 's/^stat::number_of_executed_units: *//p' |
+    awk '{ n += $1; any = 1 } END { if (any) print n }' || true)
+  log_cov=$(for l in "${wlogs[@]}"; do grep -o 'cov: [0-9]*' "$l" 2>/dev/null | tail -1; done |
+    cut -d' ' -f2 | sort -n | tail -1 || true)
   # (fork mode prints no final stats: its last progress line "#N: cov: ...")
   [ -n "$execs" ] || execs=$(grep -oE '^#[0-9]+' "$log" | tail -1 | tr -d '#' || true)
-  cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | cut -d' ' -f2 || true)
+  cov=$log_cov
   n=$(find "$findings" -type f | wc -l)
   printf '%-22s %12s execs %6s s  coverage %6s  findings %s\n' "$t" "${execs:-?}" "$secs" \
     "${cov:-?}" "$n" >"$build/logs/$t.summary"
   if [ "$status" -ne 0 ] || [ "$n" -ne 0 ]; then
     echo 1 >"$build/logs/$t.failed"
     echo "fuzz.sh: $t FAILED (exit $status); the finding:" >&2
-    grep -E 'ERROR|runtime error|SUMMARY|Test unit written' "$log" | head -20 >&2 || tail -30 "$log" >&2
+    grep -E 'ERROR|runtime error|SUMMARY|Test unit written' "$log" |
+      head -20 >&2 || tail -30 "$log" >&2
   else
     echo 0 >"$build/logs/$t.failed"
   fi
