@@ -82,7 +82,7 @@ first_stop_causes() {
     awk -v tie="$tie_cycles" '
       { n++; line[n] = $0; match($0, /"cycle":[0-9]+/); cyc[n] = substr($0, RSTART + 8, RLENGTH - 8) + 0 }
       match($0, /"text":"drive fault drive [0-9]+: EMCY 8(250|130)h/) {
-        t = substr($0, RSTART + 8, RLENGTH - 8); d = t; sub(/: EMCY.*/, "", d)
+        d = substr($0, RSTART + 8, RLENGTH - 8); sub(/: EMCY.*/, "", d)
         ne++; emcy_drive[ne] = d; emcy_cycle[ne] = cyc[n]; emcy_line[ne] = $0
       }
       END {
