@@ -80,7 +80,7 @@ declare -A MAX_LEN=([robot_config]=16384 [program]=4096 [bus_attack]=2048 [comma
 # fuzz_one TARGET: runs it; its summary line and verdict go to $build/logs/TARGET.{summary,failed}
 # (the targets run side by side, one per job: each libFuzzer process is single-threaded).
 fuzz_one() {
-  local t=$1 work findings log limit opts start status secs execs cov n log_cov i
+  local t=$1 work findings log limit opts start status secs execs cov n i
   work="$build/corpus/$t"
   findings="$build/findings/$t"
   log="$build/logs/$t.log"
@@ -114,11 +114,10 @@ fuzz_one() {
   # The sum of every worker's executions; the coverage of the one that saw most.
   execs=$(cat "${wlogs[@]}" 2>/dev/null | sed -n 's/^stat::number_of_executed_units: *//p' |
     awk '{ n += $1; any = 1 } END { if (any) print n }' || true)
-  log_cov=$(for l in "${wlogs[@]}"; do grep -o 'cov: [0-9]*' "$l" 2>/dev/null | tail -1; done |
+  cov=$(for l in "${wlogs[@]}"; do grep -o 'cov: [0-9]*' "$l" 2>/dev/null | tail -1; done |
     cut -d' ' -f2 | sort -n | tail -1 || true)
   # (fork mode prints no final stats: its last progress line "#N: cov: ...")
   [ -n "$execs" ] || execs=$(grep -oE '^#[0-9]+' "$log" | tail -1 | tr -d '#' || true)
-  cov=$log_cov
   n=$(find "$findings" -type f | wc -l)
   printf '%-22s %12s execs %6s s  coverage %6s  findings %s\n' "$t" "${execs:-?}" "$secs" \
     "${cov:-?}" "$n" >"$build/logs/$t.summary"
