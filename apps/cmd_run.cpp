@@ -388,8 +388,7 @@ int run(const RunArgs& args) {
       variants.clear();
       variants.push_back(paper_variants().front());
     }
-    drivers::CanConfig can = drivers::load_can_config_file(cfg.path);
-    can.sync_period_ns = cfg.can.sync_period_ns;  // --rate moves the SYNC with the loop
+    const drivers::CanConfig& can = cfg.can;  // read with the rest of the file (--rate included)
     rpdo_deadline_ns = can.rpdo_deadline_ns;
     drivers::CanopenSetupOptions opts;
     opts.interface = args.can;

@@ -90,7 +90,7 @@ class SimBackend final : public Backend {
 class CanBackend final : public Backend {
  public:
   CanBackend(const RobotConfig& cfg, const std::string& iface) : to_come_(cfg.model.n) {
-    drivers::CanConfig can = drivers::load_can_config_file(cfg.path);
+    const drivers::CanConfig& can = cfg.can;  // read with the rest of the file
     // The slow part of the real-time set-up (mlockall) before the drives boot: their RPDO
     // deadline and heartbeat consumer run from the last priming cycle on.
     control::ExecutiveConfig exec = cfg.loop;

@@ -156,7 +156,12 @@ RobotConfig load_robot_config(const std::string& path) {
   });
   section([&] { cfg.safety = safety::load_safety_config(root["safety"]); });
   complete.reset();  // `can:` keeps its loader's own rules (drivers/canopen_config.hpp)
-  section([&] { cfg.can = drivers::load_can_config(root["can"]); });
+  // Checked against the same file's safety.torque.max, as load_can_config_file() does: every
+  // run takes its bus description from here (one read of the file), and `dualv config check`
+  // reports a can.drives[].max_torque above the safety limit.
+  section([&] {
+    cfg.can = drivers::load_can_config(root["can"], drivers::safety_torque_max_of(root));
+  });
   if (problems.size() == document.size()) {  // every section loaded: cross-check them
     // Programs that pass pre-flight must not trip the safety layer: its limits must be at
     // least as wide as the trajectory's.

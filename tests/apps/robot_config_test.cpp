@@ -166,6 +166,19 @@ TEST(RobotConfig, CanSectionIsValidatedForInProcessRuns) {
   EXPECT_TRUE(has_problem(p, {"can.bitrate"}));
 }
 
+// `dualv config check` said "ok" for this file and `dualv run --can` refused it: the run
+// read `can:` a second time with the safety limit, the check did not.
+TEST(RobotConfig, DriveTorqueLimitAboveTheSafetyLimitIsRefusedByTheCheck) {
+  std::string t = shipped_text();
+  const std::string from = "max_torque: 60.0, peak_torque";
+  const auto at = t.find(from);
+  ASSERT_NE(at, std::string::npos);
+  t.replace(at, from.size(), "max_torque: 100.0, peak_torque");
+  EXPECT_TRUE(has_problem(problems_of_text(t),
+                          {"robot.yaml: can.drives[0].max_torque: 100 N m is above the safety "
+                           "limit safety.torque.max = 60 N m"}));
+}
+
 TEST(RobotConfig, EveryProblemAtOnceEachNamingTheFile) {
   std::string t = edited("velocity_cutoff_hz: 250.0", "velocity_cutoff_hz: 1e12");
   t.replace(t.find("    max: 60.0 "), 14, "    max: 1000.0 ");
