@@ -10,9 +10,13 @@ the wire (the service's loop runs from boot to shutdown: idle, programs, stream,
     host freezes it as a whole (host load): with --stalls FILE (the guest's stall probe,
     serve_can_hil.sh), a gap is excused when, without the time the whole guest was frozen
     within it, it is within the deadline; excused gaps are counted and printed, never hidden.
-    With --max-frozen F too, when the guest was frozen more than F of the span, the gaps not
-    excused are printed as a NOTE instead of failing: such a guest shows nothing of the loop's
-    timing (every other check below still holds)
+    With --min-rate S, when the SYNCs on the wire came at less than S times the configured
+    rate (1 / can.sync.period) over the span, the machine running the test did not carry the
+    loop's rate (a user-mode-linux guest: tests/hil/README.md "What a cycle costs in the
+    guest"): the gaps not excused are printed as a NOTE with the rate instead of failing.
+    A host that carries the rate (a PC with vcan) has every gap checked: a loop that pauses
+    (in a mode change, while a program is prepared) costs it a few cycles, not a share of its
+    rate (every other check below holds either way)
   - every SYNC after each drive's first RPDO has exactly one RPDO of every drive since the
     previous SYNC (this does not depend on timing: the loop never skips a drive in a cycle)
   - no target torque above min(safety.torque.max, the drive's max_torque), from per mille of
@@ -47,7 +51,11 @@ def parse_config(path):
     deadline = re.search(r"\n  rpdo_deadline:\s*([0-9.eE+-]+)", can)
     if not deadline or float(deadline.group(1)) <= 0:
         raise SystemExit(f"{TOOL}: no positive can.rpdo_deadline in {path}")
-    return drives, float(deadline.group(1)), config_torque_max(text, path, TOOL)
+    period = re.search(r"\n  sync:\s*\n    period:\s*([0-9.eE+-]+)", can)
+    if not period or float(period.group(1)) <= 0:
+        raise SystemExit(f"{TOOL}: no positive can.sync.period in {path}")
+    return (drives, float(deadline.group(1)), float(period.group(1)),
+            config_torque_max(text, path, TOOL))
 
 
 def parse_stalls(path):
@@ -69,13 +77,13 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--config", required=True, help="the YAML the service used")
     ap.add_argument("--stalls", help="the guest stall probe's intervals (start end per line)")
-    ap.add_argument("--max-frozen", type=float,
-                    help="with --stalls: when the guest was frozen more than this fraction of "
-                         "the service's life, the gaps are a NOTE, not a failure")
+    ap.add_argument("--min-rate", type=float,
+                    help="when the SYNCs came at less than this share of the configured rate, "
+                         "the gaps are a NOTE, not a failure (a machine that did not carry it)")
     ap.add_argument("--expect-enables", help="number of enable episodes expected: N or MIN-MAX")
     ap.add_argument("capture", help="candump -l log")
     a = ap.parse_args()
-    drives, deadline, safety_max = parse_config(a.config)
+    drives, deadline, sync_period, safety_max = parse_config(a.config)
     stalls = parse_stalls(a.stalls)
     by_cob = {0x200 + d["node"]: d for d in drives}
     tpdo_of = {0x180 + d["node"]: 0x200 + d["node"] for d in drives}
@@ -208,17 +216,18 @@ def main():
             errors.append(f"{len(episodes)} enable episodes on the wire, expected {a.expect_enables}")
     if gaps["SYNC"] > 10 or gaps["RPDO"] > 10:
         gap_errors.append(f"{gaps['SYNC']} SYNC gaps and {gaps['RPDO']} RPDO gaps above the deadline in all")
-    frozen = frozen_within(stalls, first, last) / (last - first)
-    if gap_errors and a.max_frozen is not None and frozen > a.max_frozen:
-        print(f"NOTE (guest timing): the guest was frozen {frozen * 100:.0f} % of the service's "
-              f"life (more than {a.max_frozen * 100:.0f} %): its gaps above the deadline say "
-              f"nothing of the service, reported, not checked:")
+    rate = (len(sync_ts) - 1) / (last - first)
+    if gap_errors and a.min_rate is not None and rate < a.min_rate / sync_period:
+        print(f"NOTE (guest timing): the loop ran at {rate:.0f} SYNC/s over the service's life, "
+              f"less than {a.min_rate * 100:.0f} % of the configured {1 / sync_period:.0f}: this "
+              f"machine did not carry the rate, its gaps above the deadline are reported, not "
+              f"checked:")
         for e in gap_errors:
             print("  " + e)
     else:
         errors += gap_errors
     span = ", ".join(f"{s - first:.2f}-{e - first:.2f} s" for s, e in episodes)
-    print(f"check_serve_wire: {syncs} SYNCs over {last - first:.2f} s, {rpdos} RPDOs from "
+    print(f"check_serve_wire: {syncs} SYNCs over {last - first:.2f} s ({rate:.0f}/s), {rpdos} RPDOs from "
           f"{len(drives)} drives; longest gap SYNC {worst['SYNC'] * 1e3:.1f} ms, RPDO "
           f"{worst['RPDO'] * 1e3:.1f} ms (deadline {deadline * 1e3:.0f} ms; above it: "
           f"{gaps['SYNC']} SYNC + {gaps['RPDO']} RPDO gaps, {excused['SYNC']} + {excused['RPDO']} "

@@ -24,11 +24,14 @@
 # (tests/hil/README.md), so it cannot keep a 1 kHz loop's timing everywhere. What this test
 # does instead of widening the configuration:
 #   - a stall probe (SCHED_FIFO 99, above every process of the test) records the intervals in
-#     which the guest as a whole did not run; a wire gap above the deadline is excused only when
-#     it is within the deadline without those intervals (check_serve_wire.py --stalls); when the
-#     guest was frozen more than half the service's life, the gaps are a NOTE (--max-frozen). What
-#     does not depend on timing is asserted as it is: every drive's RPDO in every cycle, the
-#     torque limit, the enable episodes, the log and fault log of each step
+#     which not even it ran (the guest "frozen"); a wire gap above the deadline is excused only
+#     when it is within the deadline without those intervals (check_serve_wire.py --stalls).
+#     When the loop ran below 95 % of its rate over the service's life, the machine did not
+#     carry the rate and the gaps are a NOTE with that rate (--min-rate; the guest runs it at
+#     200-930 SYNC/s: tests/hil/README.md "What a cycle costs in the guest"); on a machine that
+#     carries the rate every gap is checked. What does not depend on timing is asserted as it
+#     is: every drive's RPDO in every cycle, the torque limit, the enable episodes, the log and
+#     fault log of each step
 #   - a program stopped by a timing watchdog alone (deadline misses, stale feedback, drive lost,
 #     or a drive's RPDO deadline or heartbeat EMCY 8250h / 8130h: what a guest
 #     freeze causes) is not a failure of
@@ -188,7 +191,7 @@ for boot in 1 2 3; do
     kill -0 "$run_pid" 2>/dev/null || break
     sleep 0.2
   done
-  grep -q "serving: waiting" "$tmp/run.log" && break
+  grep -q "serving: waiting" "$tmp/run.log" && { head -n 1 /proc/stat >"$tmp/cpu.serving"; break; }
   kill "$run_pid" 2>/dev/null
   wait "$run_pid" 2>/dev/null
   run_pid=
@@ -215,14 +218,42 @@ timing_only() {  # timing_only FIRST_LINE: 0 when the first stop from that line 
 faults_lines() { [[ -f "$tmp/out/faults.jsonl" ]] && wc -l <"$tmp/out/faults.jsonl" || echo 0; }
 last_reset_f=1  # the first line of faults.jsonl after the test's last signed reset
 resets_before=0  # "reset accepted" lines in the log before the test's last signed reset
+reset_refusals_before=0  # "reset refused" lines, likewise
 signed_reset() {
   last_reset_f=$(($(faults_lines) + 1))
   resets_before=$(count "reset accepted")
+  reset_refusals_before=$(count "reset refused")
   signed reset
 }
 # reset_accepted: 0 once the service accepted the last signed reset. Counted from before it was
-# sent: the service may accept it before `dualv reset` has returned.
-reset_accepted() { wait_count "reset accepted" $((resets_before + 1)) 20; }
+# sent: the service may accept it before `dualv reset` has returned. A reset is refused while a
+# stop's cause is still active; in the guest that is a timing watchdog's condition (stale
+# feedback, deadline misses, a drive lost to its heartbeat, a drive's fault from its RPDO
+# deadline or heartbeat consumer, EMCY 8250h / 8130h) that held at that moment: the reset is
+# sent again after a second, as an operator would, at most 3 more times. A refusal naming any
+# other condition, or no answer, is a failure.
+reset_retries=0
+reset_accepted() {
+  local k f0=$last_reset_f active
+  for k in 1 2 3 4; do
+    wait_count "reset accepted" $((resets_before + 1)) 20 && return 0
+    [[ $k -lt 4 && $(count "reset refused") -gt $reset_refusals_before ]] || return 1
+    active=$(grep "reset refused: still active: " "$tmp/run.log" | tail -n 1 | sed 's/.*still active: //')
+    [[ -n $active ]] || return 1
+    ! sed 's/, /\n/g' <<<"$active" |
+      grep -vqxE 'drive lost|drive fault|stale feedback|consecutive deadline misses' || return 1
+    if grep -q "drive fault" <<<"$active"; then
+      ! tail -n "+$f0" "$tmp/out/faults.jsonl" | stop_causes | grep "^drive fault" |
+        grep -vqE ': EMCY 8(250|130)h$' || return 1
+    fi
+    echo "note: a signed reset was refused while the guest's timing watchdogs still held" \
+      "($active): sent again"
+    ((++reset_retries))
+    sleep 1
+    signed_reset
+  done
+  return 1
+}
 retries=0
 refusals=0  # starts refused after a timing-watchdog stop while idle (retried)
 not_shown=''  # steps whose every attempt a timing watchdog stopped (NOTE, see above)
@@ -436,6 +467,12 @@ signed_reset
 wait_count "reset \(key lab1\)" $((resets + 1)) 20 || fail "step 6: the signed reset was not accepted"
 run_paper "step 6"
 
+# Where the guest's one CPU went over the service's life (a diagnosis, nothing asserted): per
+# thread, time on the CPU and time runnable but waiting for it (tests/hil/README.md "What a
+# cycle costs in the guest").
+"$py" "$here/guest_cpu.py" --since "$tmp/cpu.serving" run="$run_pid" sim="$sim_pid" capture="$dump_pid" probe="$probe_pid" \
+  ksoftirqd="$(pgrep -x ksoftirqd/0 || echo none)" || true
+
 # 7. SIGINT: the service ends cleanly.
 kill -INT "$run_pid"
 wait "$run_pid"
@@ -470,9 +507,9 @@ grep -q " 0 lost" "$tmp/capture.err" || fail "the capture lost frames: $(tail -n
 # The capture runs above the loop (SCHED_FIFO 95): its own longest wake-up, to set beside a
 # wire gap the stall probe does not excuse.
 grep "wake-ups" "$tmp/capture.err" || true
-# A guest frozen more than half the time shows nothing of the loop's timing: its gaps are a
-# NOTE there (check_serve_wire.py --max-frozen), every other wire check holds.
-"$py" "$here/check_serve_wire.py" --config "$config" --stalls "$tmp/stalls.txt" --max-frozen 0.5 \
+# A machine that ran the loop below 95 % of its rate shows nothing of its gaps: a NOTE there
+# (check_serve_wire.py --min-rate), every other wire check holds.
+"$py" "$here/check_serve_wire.py" --config "$config" --stalls "$tmp/stalls.txt" --min-rate 0.95 \
   --expect-enables="$enables" "$capture" || fail "wire check"
 # What passed, in the steps' order; a step not shown in this guest is named as such.
 shown_steps="idle state published; step 2 paper done; step 3 stream done; step 4 e-stop during"
@@ -483,6 +520,6 @@ for s in $(grep -o "[0-9]" <<<"$not_shown"); do
 done
 echo "PASS: serve over vcan with the shipped configuration: $shown_steps; SIGINT exit 0; wire" \
   "checked (timing-watchdog retries: $retries, starts refused after one: $refusals, idle resets:" \
-  "$idle_resets, boot retries: $boot_retries)"
+  "$idle_resets, resets sent again: $reset_retries, boot retries: $boot_retries)"
 [[ -z $not_shown ]] || echo "NOTE (guest timing): not shown in this guest (every attempt stopped by" \
   "a timing watchdog; the stops checked):$not_shown"
