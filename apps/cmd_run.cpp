@@ -424,8 +424,11 @@ int run(const RunArgs& args) {
     const control::RunReport loop_report = machine.shutdown();
     cycle_clock.end_cycle();  // the loop has ended: real time again for the shut-down
     if (drives) drives->shut_down(leave_log);  // disabled, then as can.on_exit says
-    // How the loop kept its time over the service's life, idle included.
+    // How the loop kept its time over the service's life, idle included, and what crossed the
+    // bus as the master counted it (frames the kernel refused included: ENOBUFS).
     fmt::print("\n{}", control::format_loop_stats(loop_report.stats));
+    if (drives)
+      fmt::print("\n{}", bus_report(drives->actuators(), static_cast<std::int64_t>(syncs_before)));
     return rc;
   }
 

@@ -1,10 +1,10 @@
 // The configuration loader on any file: the input is the file (config/dualv.yaml and broken
 // variants of it are the seeds), read by load_robot_config (apps/experiment/robot_config.hpp,
 // every `dualv run`) and, as `dualv sim` and `dualv eds-check` do, by load_can_config_file
-// (drivers/canopen_config.hpp). A
-// refusal is an exception (set-up code); everything else must not crash, leak, hang or hit
-// undefined behaviour, and a configuration that loads must hold what the loaders promise:
-// a positive control period and the safety limits at least as wide as the trajectory's.
+// (drivers/canopen_config.hpp). A refusal is an exception (set-up code); everything else must
+// not crash, leak, hang or hit undefined behaviour, and a configuration that loads must hold
+// what the loaders promise: a positive control period, the safety limits at least as wide as
+// the trajectory's, and no drive allowed more torque than the safety limit.
 #include <sys/mman.h>
 #include <unistd.h>
 
@@ -43,7 +43,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   try {
     const dualv::apps::RobotConfig cfg = dualv::apps::load_robot_config(path);
     FUZZ_CHECK(cfg.loop.period_ns > 0 && std::isfinite(cfg.rate_hz()));
-    // The drives never allow more than the safety layer commands (the run's only bus reading).
     for (const auto& d : cfg.can.drives) FUZZ_CHECK(d.max_torque <= cfg.safety.torque.max);
     FUZZ_CHECK(cfg.safety.torque.max >= cfg.trajectory.limits.max_joint_torque);
     FUZZ_CHECK(cfg.safety.max_joint_velocity >= cfg.trajectory.limits.max_joint_speed);

@@ -34,11 +34,20 @@ def capture(period_s, seconds, gap_at=None, gap_s=0.0, torque=0, skip_drive_at=N
     return lines
 
 
-def check(lines, *args):
+def check(lines, *args, enobufs=None):
+    """check_serve_wire.py's exit status and output; ENOBUFS: a run log whose bus report
+    gives that count (passed with --run-log), or no run log."""
     with tempfile.TemporaryDirectory() as d:
         path = os.path.join(d, "capture.log")
         with open(path, "w") as f:
             f.write("\n".join(lines) + "\n")
+        if enobufs is not None:
+            log = os.path.join(d, "run.log")
+            with open(log, "w") as f:
+                f.write("loop: 2000 cycles at 1000 Hz\n" if enobufs == "none" else
+                        f"bus: 2001 SYNCs sent (1 before the program: priming), ENOBUFS {enobufs}, "
+                        "send errors 0, bus-off 0; received: foreign SYNCs 0\n")
+            args = ("--run-log", log, *args)
         p = subprocess.run([sys.executable, os.path.join(HERE, "check_serve_wire.py"), "--config",
                             CONFIG, "--expect-enables=0", *args, path],
                            capture_output=True, text=True)
@@ -77,6 +86,21 @@ class CheckServeWire(unittest.TestCase):
         rc, out = check(capture(0.002, 1.0, skip_drive_at=100), *slow)
         self.assertEqual(rc, 1, out)
         self.assertIn("without an RPDO 204", out)
+
+
+    def test_a_missing_rpdo_fails_unless_the_master_counted_it_refused(self):
+        lines = capture(0.001, 1.0, skip_drive_at=100)
+        rc, out = check(lines)
+        self.assertEqual(rc, 1, out)
+        self.assertIn("SYNC 101 without an RPDO 204", out)
+        rc, out = check(lines, enobufs=0)
+        self.assertEqual(rc, 1, out)
+        rc, out = check(lines, enobufs=1)
+        self.assertEqual(rc, 0, out)
+        self.assertIn("1 RPDOs missing on the wire, within the 1 frames the master counted", out)
+        rc, out = check(lines, enobufs="none")  # a run log without the bus report
+        self.assertNotEqual(rc, 0, out)
+        self.assertIn("no 'bus: ... ENOBUFS N' report", out)
 
 
 if __name__ == "__main__":

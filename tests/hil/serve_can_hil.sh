@@ -510,6 +510,7 @@ grep "wake-ups" "$tmp/capture.err" || true
 # A machine that ran the loop below 95 % of its rate shows nothing of its gaps: a NOTE there
 # (check_serve_wire.py --min-rate), every other wire check holds.
 "$py" "$here/check_serve_wire.py" --config "$config" --stalls "$tmp/stalls.txt" --min-rate 0.95 \
+  --run-log "$tmp/run.log" \
   --expect-enables="$enables" "$capture" || fail "wire check"
 # What passed, in the steps' order; a step not shown in this guest is named as such.
 shown_steps="idle state published; step 2 paper done; step 3 stream done; step 4 e-stop during"
