@@ -3,9 +3,10 @@
 scheduling, lifetime, time running and time runnable but waiting for the CPU, from
 /proc/PID/task/TID/schedstat (CONFIG_SCHED_INFO: ns on the CPU, ns waiting on a run queue,
 time slices) and /proc/PID/task/TID/stat; and the whole CPU's busy/idle share since boot
-(/proc/stat, or since a copy of its first line: --since FILE). A diagnosis for serve_can_hil.sh (issue 12): a loop thread that is late while
-runnable lost the CPU to other tasks (or to the SCHED_FIFO throttling); one that is late while
-sleeping was woken late. Prints a table; exit status 0 (a process that is gone is skipped).
+(/proc/stat), or since an earlier copy of its first line (--since FILE). A diagnosis for
+serve_can_hil.sh (issue 12): a loop thread that is late while runnable lost the CPU to other
+tasks (or to the SCHED_FIFO throttling); one that is late while sleeping was woken late.
+Prints a table; exit status 0 (a process that is gone is skipped).
 
 Usage: guest_cpu.py [--since FILE] LABEL=PID [LABEL=PID ...]
   (FILE: `head -n 1 /proc/stat` taken earlier, e.g. when the service was up)
@@ -38,8 +39,8 @@ def main(argv):
         since, argv = f"the reading in {os.path.basename(argv[1])}", argv[2:]
     idle = cpu[3] + cpu[4]  # idle + iowait, in clock ticks
     total = max(sum(cpu), 1)
-    print(f"guest CPU since {since} ({total / hz:.1f} s): busy {100.0 * (total - idle) / total:.1f} %"
-          f" (user {100.0 * cpu[0] / total:.1f}, system {100.0 * cpu[2] / total:.1f}, softirq "
+    busy = 100.0 * (total - idle) / total
+    print(f"guest CPU since {since} ({total / hz:.1f} s): busy {busy:.1f} % (user {100.0 * cpu[0] / total:.1f}, system {100.0 * cpu[2] / total:.1f}, softirq "
           f"{100.0 * cpu[6] / total:.1f}), idle {100.0 * idle / total:.1f} %")
     print(f"  {'process':<10} {'thread':<16} {'sched':<9} {'life s':>7} {'on CPU s':>9} "
           f"{'%':>5} {'waiting s':>9} {'%':>5} {'slices':>8}")
