@@ -372,18 +372,27 @@ streamed=0
 for attempt in 1 2 3; do
   f3=$(($(faults_lines) + 1))
   ends3=$(count "stream (done|STOPPED)") refused3=$(count "start of .* refused")
+  received3=$(count "command accepted: start signed")
   # shellcheck disable=SC2046
   $(fifo 60) "$dualv" stream --key "$key" --lcm "$url" --circle 0.01 --duration 2 >"$tmp/stream.log" 2>&1
   stream_rc=$?
   case $(wait_new 60 "stream (done|STOPPED)" "$ends3" "start of .* refused" "$refused3") in
     1) streamed=1; break ;;
     2) refused_by_timing "step 3" "$attempt" ;;
-    *) fail "step 3: the stream neither ended nor was refused in 60 s"; break ;;
+    *)
+      # The streamer's start datagram lost on the guest's loopback (as started_or_refused
+      # handles for a program's start): tried again; a start received and neither started nor
+      # refused is a failure.
+      [[ $(count "command accepted: start signed") -eq $received3 ]] ||
+        fail "step 3: the stream neither ended nor was refused in 60 s"
+      echo "note: step 3: the stream's start never reached the service (attempt $attempt)"
+      ((++retries))
+      ;;
   esac
 done
 if [[ $streamed -eq 0 ]]; then
   echo "NOTE (guest timing): step 3: no stream started in 3 attempts (each refused after a" \
-    "timing watchdog's stop while idle; their stops are checked on the wire)"
+    "timing watchdog's stop while idle, or its start lost; their stops are checked on the wire)"
   not_shown+=" step 3"
 elif [[ $(count "stream done") -gt $ends3 ]]; then
   [[ $stream_rc -eq 0 ]] || fail "step 3: dualv stream failed ($stream_rc)"
