@@ -87,7 +87,6 @@ class CheckServeWire(unittest.TestCase):
         self.assertEqual(rc, 1, out)
         self.assertIn("without an RPDO 204", out)
 
-
     def test_a_missing_rpdo_fails_unless_the_master_counted_it_refused(self):
         lines = capture(0.001, 1.0, skip_drive_at=100)
         rc, out = check(lines)
