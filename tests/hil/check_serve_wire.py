@@ -37,6 +37,7 @@ the wire (the service's loop runs from boot to shutdown: idle, programs, stream,
 Exit status 0 when everything holds, 1 otherwise (every problem is printed).
 """
 import argparse
+import bisect
 import re
 import sys
 
@@ -64,18 +65,42 @@ def parse_config(path):
 
 
 def parse_stalls(path):
-    """Intervals (a, b) in CLOCK_REALTIME seconds in which the guest's probe did not run."""
+    """Intervals (a, b) in CLOCK_REALTIME seconds in which the guest's probe did not run,
+    sorted, overlapping ones merged."""
     out = []
     if path:
         for line in open(path):
             p = line.split()
             if len(p) == 2:
                 out.append((float(p[0]), float(p[1])))
-    return out
+    merged = []
+    for a, b in sorted(out):
+        if merged and a <= merged[-1][1]:
+            merged[-1] = (merged[-1][0], max(merged[-1][1], b))
+        else:
+            merged.append((a, b))
+    return merged
 
 
-def frozen_within(stalls, t1, t2):
-    return sum(max(0.0, min(b, t2) - max(a, t1)) for a, b in stalls)
+class FrozenTime:
+    """The time within [t1, t2] covered by the stalls (parse_stalls: sorted, disjoint), found by
+    bisection: a 5-minute service in the guest has ~30 000 gaps and ~20 000 stalls, too many to
+    compare every pair (minutes of Python in the guest, near the test's time limit)."""
+
+    def __init__(self, stalls):
+        self.starts = [a for a, _ in stalls]
+        self.ends = [b for _, b in stalls]
+        self.before = [0.0]  # before[i]: the stalls' total length before the i-th
+        for a, b in stalls:
+            self.before.append(self.before[-1] + b - a)
+
+    def within(self, t1, t2):
+        i = bisect.bisect_right(self.ends, t1)  # the first stall ending after t1
+        j = bisect.bisect_left(self.starts, t2)  # the first stall starting at t2 or later
+        if i >= j:
+            return 0.0
+        return (self.before[j] - self.before[i] - max(0.0, t1 - self.starts[i])
+                - max(0.0, self.ends[j - 1] - t2))
 
 
 def main():
@@ -97,6 +122,7 @@ def main():
             raise SystemExit(f"{TOOL}: no 'bus: ... ENOBUFS N' report in {a.run_log}")
         refused = int(bus.group(1))
     stalls = parse_stalls(a.stalls)
+    frozen_time = FrozenTime(stalls)
     by_cob = {0x200 + d["node"]: d for d in drives}
     tpdo_of = {0x180 + d["node"]: 0x200 + d["node"] for d in drives}
     errors = []
@@ -119,7 +145,7 @@ def main():
         worst[kind] = max(worst[kind], g)
         if g <= deadline:
             return
-        frozen = frozen_within(stalls, t1, t2)
+        frozen = frozen_time.within(t1, t2)
         if g - frozen <= deadline:
             excused[kind] += 1
             return

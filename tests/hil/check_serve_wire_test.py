@@ -9,12 +9,15 @@ when a gap above the deadline fails the check: always on a machine that carried 
 rate, a NOTE with --min-rate on one that did not, and the other checks hold either way.
 """
 import os
+import random
 import subprocess
 import sys
 import tempfile
 import unittest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+import check_serve_wire  # noqa: E402  (FrozenTime, beside this file)
 CONFIG = os.path.join(HERE, "..", "..", "config", "dualv.yaml")
 
 
@@ -100,6 +103,37 @@ class CheckServeWire(unittest.TestCase):
         rc, out = check(lines, enobufs="none")  # a run log without the bus report
         self.assertNotEqual(rc, 0, out)
         self.assertIn("no 'bus: ... ENOBUFS N' report", out)
+
+
+class FrozenTime(unittest.TestCase):
+    def test_bisection_gives_what_every_pair_compared_gives(self):
+        """The frozen time within a gap by bisection over the merged stalls, against the sum
+        over every stall of its overlap with the gap (the probe's own intervals, unmerged,
+        overlapping and touching ones included)."""
+        rng = random.Random(12)
+        for _ in range(200):
+            raw, t = [], 0.0
+            for _ in range(rng.randrange(0, 40)):
+                t += rng.choice((0.0, rng.uniform(0.0, 0.02)))  # touching or apart
+                b = t + rng.uniform(0.001, 0.05)
+                raw.append((t, b))
+                t = rng.choice((b, t + 0.001))  # the next starts at the end or inside
+            with tempfile.NamedTemporaryFile("w", suffix=".txt", delete=False) as f:
+                f.writelines(f"{a:.6f} {b:.6f}\n" for a, b in raw)
+            try:
+                stalls = check_serve_wire.parse_stalls(f.name)
+                raw = [(float(f"{a:.6f}"), float(f"{b:.6f}")) for a, b in raw]
+            finally:
+                os.unlink(f.name)
+            frozen = check_serve_wire.FrozenTime(stalls)
+            for _ in range(50):
+                t1 = rng.uniform(-0.01, t + 0.06)
+                t2 = t1 + rng.uniform(0.0, 0.2)
+                # merged: what more than one stall covers counts once
+                points = sorted({t1, t2} | {x for a, b in raw for x in (a, b) if t1 < x < t2})
+                expected = sum(b - a for a, b in zip(points, points[1:])
+                               if any(s <= a and b <= e for s, e in raw))
+                self.assertAlmostEqual(frozen.within(t1, t2), expected, places=9)
 
 
 if __name__ == "__main__":
