@@ -70,7 +70,8 @@ phase "hardware-in-the-loop tests (vcan in user-mode-linux)"
 # tests/hil/KNOWN_FAILING lists HIL tests that fail since the always-on loop (issue 12) and
 # are being fixed: they run and report below, but do not stop this script. Every other HIL
 # test gates as before. The list must shrink to nothing; see the file for each reason.
-known=$(awk '!/^#/ && NF {print $1}' tests/hil/KNOWN_FAILING | paste -sd'|' -)  # (awk: no test listed is no error, grep's exit 1 would end the script)
+# (awk, not grep: an empty list is no error, where grep's exit 1 would end this script)
+known=$(awk '!/^#/ && NF {print $1}' tests/hil/KNOWN_FAILING | paste -sd'|' -)
 if [[ -n $known ]]; then
   ctest --test-dir build/release --output-on-failure --timeout 900 -L hil -E "^(${known})\$" \
     --repeat until-pass:2
