@@ -13,6 +13,7 @@ PKGS=(
   libyaml-cpp-dev libcli11-dev libfmt-dev libspdlog-dev
   libsodium-dev libsystemd-dev
   user-mode-linux kmod iproute2 can-utils
+  linux-source-6.1 bc flex bison   # the time-travel UML kernel (tests/hil/uml_kernel/build.sh)
   python3-matplotlib python3-numpy python3-yaml
   dpkg-dev file
 )

@@ -64,6 +64,11 @@ cmake -S . -B build/release -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDUALV_WERROR=ON 
 cmake --build build/release -j"$jobs"
 phase "tests (release)"
 ctest --test-dir build/release --output-on-failure -j"$jobs" --timeout 900 -LE hil
+# The virtual-clock HIL tests' guest kernel (time travel; tests/hil/README.md "Guest clocks"):
+# built once from Debian's linux-source-6.1, kept in build/uml-kernel while its inputs hold.
+phase "time-travel UML kernel (tests/hil/uml_kernel/build.sh)"
+bash tests/hil/uml_kernel/build.sh build/uml-kernel
+export DUALV_HIL_REQUIRE_VIRTUAL=1  # a virtual-clock test without its kernel fails, never skips
 # HIL tests boot a user-mode-linux guest whose timing is coarse (ms-scale stalls on a shared
 # machine): one at a time, and a case that fails is run once more (it must then pass).
 phase "hardware-in-the-loop tests (vcan in user-mode-linux)"

@@ -107,6 +107,7 @@ if [[ $booted -eq 1 && $run_rc -ne 0 ]]; then
   grep -Eq "cycle 0 .*safety stop \(drive fault\)|refused the start: a stop is latched" \
     "$tmp/run.log" && grep -Eq "EMCY (8130|8250)h|heartbeat timed out" "$tmp/run.log" && timing=1
   if [[ $timing -eq 1 ]]; then
+    guest_timing "run: dualv run --can exited $run_rc on the loop's timing watchdogs"
     echo "NOTE: the run stopped on host timing in the guest (exit $run_rc, see above); boot and wire" \
       "were checked"
   else

@@ -47,16 +47,20 @@ mount -t sysfs sysfs /sys || setup_fail "mount sysfs"
 # /dev is the guest's devtmpfs; give it a private /dev/shm for POSIX shared memory.
 mkdir -p /dev/shm && mount -t tmpfs -o mode=1777 tmpfs /dev/shm || setup_fail "mount /dev/shm"
 
-kdir=/usr/lib/uml/modules/$(uname -r)/kernel
-[[ -d "$kdir" ]] || setup_fail "no UML modules in $kdir (install user-mode-linux)"
-for m in net/can/can.ko net/can/can-raw.ko drivers/net/can/dev/can-dev.ko \
-  drivers/net/can/vcan.ko; do
-  insmod "$kdir/$m" >>"$out" 2>&1 || setup_fail "insmod $kdir/$m failed"
-done
-# Optional: can-bcm for tools that use it, sch_plug so tests can fill a transmit queue.
-for m in net/can/can-bcm.ko net/sched/sch_plug.ko; do
-  [[ -f "$kdir/$m" ]] && insmod "$kdir/$m" >/dev/null 2>&1
-done
+# Debian's linux.uml has SocketCAN as modules; the time-travel kernel
+# (tests/hil/uml_kernel/build.sh) has it built in.
+if [[ ! -d /proc/net/can ]]; then
+  kdir=/usr/lib/uml/modules/$(uname -r)/kernel
+  [[ -d "$kdir" ]] || setup_fail "no UML modules in $kdir (install user-mode-linux)"
+  for m in net/can/can.ko net/can/can-raw.ko drivers/net/can/dev/can-dev.ko \
+    drivers/net/can/vcan.ko; do
+    insmod "$kdir/$m" >>"$out" 2>&1 || setup_fail "insmod $kdir/$m failed"
+  done
+  # Optional: can-bcm for tools that use it, sch_plug so tests can fill a transmit queue.
+  for m in net/can/can-bcm.ko net/sched/sch_plug.ko; do
+    [[ -f "$kdir/$m" ]] && insmod "$kdir/$m" >/dev/null 2>&1
+  done
+fi
 
 for ((i = 0; i < vcans; ++i)); do
   ip link add dev "vcan$i" type vcan >>"$out" 2>&1 || setup_fail "ip link add vcan$i"

@@ -12,6 +12,19 @@ wait_for() {
   return 1
 }
 
+# on_virtual_clock: 0 when the guest runs on the virtual clock (run_in_vcan.sh --clock virtual,
+# DUALV_HIL_CLOCK=virtual): its time stands still while it computes, so it keeps every deadline
+# of the shipped configuration whatever the host does (tests/hil/README.md "Guest clocks").
+on_virtual_clock() { [[ ${DUALV_HIL_CLOCK:-real} == virtual ]]; }
+# guest_timing WHAT: called where a script is about to excuse guest timing (a timing-watchdog
+# stop retried, a NOTE, a skip). On the real clock it returns 0 and the script excuses it; on
+# the virtual clock nothing is excused: it prints FAIL with WHAT and ends the script with 1.
+guest_timing() {
+  on_virtual_clock || return 0
+  echo "FAIL (virtual clock: the guest keeps every deadline, nothing is excused as guest timing): $*"
+  exit 1
+}
+
 # skip_outside_lcm_guest: exit 77 (ctest: skipped) unless this runs in the HIL guest or a
 # private network namespace, the only places LCM's UDP multicast may be sent.
 skip_outside_lcm_guest() {

@@ -6,7 +6,7 @@ if(TARGET dualv)
   dualv_add_hil_test(hil_paper
     COMMAND ${CMAKE_CURRENT_LIST_DIR}/paper_hil.sh $<TARGET_FILE:dualv>
             ${PROJECT_SOURCE_DIR}/config/dualv.yaml ${PROJECT_SOURCE_DIR}/config/paper.yaml
-    VCANS 1 TIMEOUT 600)  # up to 8 runs (4 attempts of each part): ~200 s on a loaded host
+    VCANS 1 TIMEOUT 600 CLOCKS real virtual)  # up to 8 runs (4 attempts of each part): ~200 s on a loaded host
 endif()
 
 # check_paper_wire.py on hand-built captures (on the host: no guest, no CAN): every check it

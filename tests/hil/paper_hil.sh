@@ -172,6 +172,7 @@ for ((attempt = 1; attempt <= attempts && completed == 0; ++attempt)); do
   if [[ $run_rc -eq 0 && -z $causes ]]; then
     completed=1
   elif [[ $run_rc -eq 1 && -n $causes ]] && timing_stops_only <<<"$causes"; then
+    guest_timing "paper: attempt $attempt ended on the loop's timing watchdogs: $(tr '\n' ';' <<<"$causes")"
     notes+=("attempt $attempt: $(grep -m1 -oE "FAILED in .*" "$tmp/$name.run.log"); $(grep -m1 '^loop:' "$tmp/$name.run.log")")
     echo "note: attempt $attempt ended on the loop's timing watchdogs (guest timing): $(tr '\n' ';' <<<"$causes")"
   else
@@ -275,6 +276,7 @@ for ((attempt = 1; attempt <= attempts && emcy_shown == 0 && failed == 0; ++atte
     wire "$name" "foreign (STO after the EMCY)" --sto-after 3:4210
     emcy_shown=1
   elif [[ -n $causes ]] && timing_stops_only <<<"$causes"; then
+    guest_timing "foreign: attempt $attempt ended on the loop's timing watchdogs before the EMCY: $(tr '\n' ';' <<<"$causes")"
     wire "$name" "foreign (attempt $attempt)"
     enotes+=("attempt $attempt: $(grep -m1 -oE "FAILED in .*" "$tmp/$name.run.log"); $(grep -m1 '^loop:' "$tmp/$name.run.log")")
     echo "note: attempt $attempt ended on the loop's timing watchdogs before the EMCY: $(tr '\n' ';' <<<"$causes")"

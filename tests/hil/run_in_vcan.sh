@@ -3,7 +3,8 @@
 # command's exit status. Used by ctest (dualv_add_hil_test, label hil) and by hand:
 #
 #   tests/hil/run_in_vcan.sh [--timeout S] [--vcans N] [--mode auto|uml|netns|host]
-#                            [--shim PATH] [--] COMMAND [ARGS...]
+#                            [--clock real|virtual] [--kernel PATH] [--shim PATH]
+#                            [--] COMMAND [ARGS...]
 #
 # Modes (auto picks the first that works):
 #   netns  the host kernel has vcan and we are root: the command runs in a private network
@@ -16,6 +17,18 @@
 #
 # In the guest the command keeps the caller's environment and working directory and runs as
 # root; /tmp is the host's /tmp; guest timing is coarse (assert ordering, not latency).
+#
+# Clocks (--clock, default real):
+#   real     the guest's clocks are the host's: its one virtual CPU, which the host freezes
+#            as a whole under load, often cannot keep a 1 kHz loop's timing
+#   virtual  always uml, on the time-travel kernel tests/hil/uml_kernel/build.sh builds
+#            (--kernel, default build/uml-kernel/linux beside this checkout), booted with
+#            time-travel=inf-cpu: guest time advances only while every guest task sleeps, so
+#            computing and system calls take no guest time and every deadline of the shipped
+#            configuration holds whatever the host does; the kernel, its CAN stack and the
+#            sockets are real (tests/hil/README.md "Guest clocks"). The command sees
+#            DUALV_HIL_CLOCK=virtual. Without the kernel: skipped (77), or 125 when
+#            DUALV_HIL_REQUIRE_VIRTUAL=1 (scripts/test.sh)
 # The command's output (stdout and stderr together) is printed when it has finished.
 #
 # Exit status: the command's; 124 on timeout; 125 when the guest died or could not be set
@@ -25,8 +38,9 @@
 #
 # Environment: DUALV_HIL_TIMEOUT (default 300 s), DUALV_HIL_VCANS (default 1),
 # DUALV_HIL_MODE (default auto), DUALV_UML_SHIM (see uml_xstate_shim.c), DUALV_UML_MEM
-# (default 256M), DUALV_HIL_KEEP=1 keeps the run folder. The command sees DUALV_HIL set to
-# the mode it runs in.
+# (default 256M), DUALV_HIL_KEEP=1 keeps the run folder, DUALV_HIL_CLOCK (default real),
+# DUALV_UML_KERNEL (the virtual clock's kernel). The command sees DUALV_HIL set to the mode
+# it runs in.
 set -u
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -36,9 +50,11 @@ mode=${DUALV_HIL_MODE:-auto}
 shim=${DUALV_UML_SHIM:-}
 mem=${DUALV_UML_MEM:-256M}
 keep=${DUALV_HIL_KEEP:-0}
+clock=${DUALV_HIL_CLOCK:-real}
+kernel=${DUALV_UML_KERNEL:-$(cd "$here/../.." && pwd)/build/uml-kernel/linux}
 
 usage() {
-  sed -n '2,25p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//' >&2
+  awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "${BASH_SOURCE[0]}" >&2
   exit 2
 }
 while [[ $# -gt 0 ]]; do
@@ -47,6 +63,8 @@ while [[ $# -gt 0 ]]; do
     --vcans) vcans=${2:?}; shift 2 ;;
     --mode) mode=${2:?}; shift 2 ;;
     --shim) shim=${2:?}; shift 2 ;;
+    --clock) clock=${2:?}; shift 2 ;;
+    --kernel) kernel=${2:?}; shift 2 ;;
     --help | -h) usage ;;
     --) shift; break ;;
     -*) echo "run_in_vcan: unknown option $1" >&2; usage ;;
@@ -57,6 +75,22 @@ done
 [[ "$timeout_s" =~ ^[0-9]+$ && "$vcans" =~ ^[0-9]+$ && "$vcans" -ge 1 ]] || usage
 
 log() { echo "run_in_vcan: $*" >&2; }
+
+case $clock in
+  real) ;;
+  virtual)
+    # Time travel exists only in a guest of our own kernel: never the host's clock.
+    mode=uml
+    if [[ ! -x "$kernel" ]]; then
+      log "no time-travel UML kernel at $kernel: build it with tests/hil/uml_kernel/build.sh" \
+        "(Debian's linux-source-6.1; scripts/test.sh does)"
+      [[ "${DUALV_HIL_REQUIRE_VIRTUAL:-0}" == 1 ]] && exit 125
+      exit 77
+    fi
+    ;;
+  *) log "unknown clock '$clock' (real, virtual)"; exit 2 ;;
+esac
+export DUALV_HIL_CLOCK=$clock
 
 if ! command -v -- "$1" >/dev/null 2>&1; then
   log "command '$1' not found (not built yet?)"
@@ -118,10 +152,16 @@ for arg in "${@:2}"; do
   fi
 done
 
-uml=$(command -v linux.uml || true)
-if [[ -z "$uml" ]]; then
-  log "linux.uml not found: install Debian's user-mode-linux (scripts/install-deps.sh)"
-  exit 125
+uml_args=()
+if [[ "$clock" == virtual ]]; then
+  uml=$kernel
+  uml_args=(time-travel=inf-cpu)
+else
+  uml=$(command -v linux.uml || true)
+  if [[ -z "$uml" ]]; then
+    log "linux.uml not found: install Debian's user-mode-linux (scripts/install-deps.sh)"
+    exit 125
+  fi
 fi
 
 # A fresh folder per run: several guests may run at once (ctest -j). The guest sees it at
@@ -168,6 +208,7 @@ fi
     esac
   done < <(compgen -e)
   echo 'export DUALV_HIL=uml'
+  printf 'export DUALV_HIL_CLOCK=%q\n' "$clock"
   # Keep glibc's string functions off AVX-512 registers, which the UML 6.1 guest does not
   # save per thread (see uml_xstate_shim.c).
   hw='glibc.cpu.hwcaps=-AVX512F,-AVX512VL,-AVX512BW,-AVX512DQ,-AVX512CD'
@@ -179,7 +220,7 @@ mkdir -p "$run_dir/uml"
 # stdin from /dev/null and console on fds 0/1: no tty needed (ctest, CI).
 LD_PRELOAD=$shim timeout -k 5 "$timeout_s" "$uml" \
   mem="$mem" rootfstype=hostfs rw uml_dir="$run_dir/uml" umid=hil \
-  init="$run_dir/guest-init.sh" con=null con0=fd:0,fd:1 \
+  init="$run_dir/guest-init.sh" con=null con0=fd:0,fd:1 "${uml_args[@]}" \
   dualv_hil_dir="$run_dir" dualv_hil_vcans="$vcans" \
   </dev/null >"$run_dir/console.log" 2>&1 &
 uml_pid=$!

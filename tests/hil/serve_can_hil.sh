@@ -54,6 +54,11 @@
 #     in one sendmmsg); the capture (SCHED_FIFO 95) wakes every 20 ms, not per frame, and fails
 #     the test if its 8 MB receive buffer ever overflowed. This is what lets the one virtual
 #     CPU carry the loop at all (tests/hil/README.md "Timing in the guest")
+# On the virtual clock (run_in_vcan.sh --clock virtual, DUALV_HIL_CLOCK=virtual: the guest's
+# time stands still while it computes, so it keeps every deadline of the shipped configuration
+# whatever the host does) none of the above is excused: a retry, a resend, a NOTE (guest
+# timing) or a skip fails the test, and every gap on the wire is checked (no --stalls, no
+# --min-rate). That run shows every step over real SocketCAN (ctest hil_serve_can_virtual_clock).
 # Usage: serve_can_hil.sh DUALV_BINARY CONFIG_YAML PROGRAM_YAML CAN_CAPTURE_BINARY
 # KEEP=1 keeps the work folder (logs, capture) and prints its path.
 set -u
@@ -65,6 +70,8 @@ program=${3:?$usage}
 can_capture=${4:?$usage}
 here=$(cd "$(dirname "$0")" && pwd)
 skip_outside_lcm_guest
+strict=0  # the virtual clock: nothing excused as guest timing (above)
+on_virtual_clock && strict=1  # hil_lib.sh
 py=/usr/bin/python3
 [[ -x $py ]] || py=python3
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/dualv-serve-can-hil.XXXXXX") || exit 1
@@ -139,7 +146,9 @@ fifo() {  # fifo PRIO: a chrt prefix where permitted (root in the guest), else n
 # user-mode-linux guest (never a host's or a namespace's kernel). The guest kernel has
 # CONFIG_RT_GROUP_SCHED, so the throttling that applies is the root task group's (cgroup v1
 # cpu.rt_*_us; the sysctls only bound it): runtime first, it must never exceed the period.
-if [[ "${DUALV_HIL:-}" == uml ]]; then
+# Not on the virtual clock: there computing takes no guest time, so the real-time tasks never
+# fill a throttling period (and that kernel has no RT group scheduling).
+if [[ "${DUALV_HIL:-}" == uml && $strict -eq 0 ]]; then
   rt_cg=/dev/shm/dualv-rt-cgroup
   if ! { mkdir -p "$rt_cg" && mount -t cgroup -o cpu cgroup "$rt_cg" &&
     echo 9000 >"$rt_cg/cpu.rt_runtime_us" && echo 10000 >"$rt_cg/cpu.rt_period_us"; }; then
@@ -202,6 +211,7 @@ for boot in 1 2 3; do
   if ! grep -q "SDO timeout" "$tmp/run.log" || [[ ! -s "$tmp/stalls.txt" ]]; then
     fail "no service (boot $boot): $(grep -m1 "error" "$tmp/run.log")"
   fi
+  [[ $strict -eq 0 ]] || fail "the service's boot $boot ended on an SDO timeout on the virtual clock"
   if [[ $boot -eq 3 ]]; then  # as the rate check below: a guest that cannot run this at all
     echo "skipped: three boots of the drives ended on SDO timeouts (can.timeouts.sdo) with the" \
       "guest frozen $(awk 'NR == 1 {a = $1} {s += $2 - $1; b = $2} END {printf "%.1f s of %.1f s", s, b - a}' "$tmp/stalls.txt")" \
@@ -371,6 +381,7 @@ syncs=$(grep -c " vcan0 080#" "$tmp/dump/capture.log" 2>/dev/null || true)
 elapsed=$(( $(date +%s) - boot_done ))
 if [[ -n $rate && $elapsed -gt 0 ]] &&
    awk -v s="$syncs" -v e="$elapsed" -v r="$rate" 'BEGIN { exit !(s / e < 0.5 * r) }'; then
+  [[ $strict -eq 0 ]] || fail "the loop ran at $((syncs / elapsed)) SYNC/s of $rate while idle on the virtual clock"
   echo "skipped: the guest ran the ${rate} Hz loop at $((syncs / elapsed)) SYNC/s while idle" \
     "(its one virtual CPU cannot carry the loop and the four emulated drives at this" \
     "rate: tests/hil/README.md); run it on a PC with vcan"
@@ -548,9 +559,17 @@ grep -q " 0 lost" "$tmp/capture.err" || fail "the capture lost frames: $(tail -n
 grep "wake-ups" "$tmp/capture.err" || true
 # A machine that ran the loop below 95 % of its rate shows nothing of its gaps: a NOTE there
 # (check_serve_wire.py --min-rate), every other wire check holds.
-"$py" "$here/check_serve_wire.py" --config "$config" --stalls "$tmp/stalls.txt" --min-rate 0.95 \
-  --run-log "$tmp/run.log" \
+wire_excuses=(--stalls "$tmp/stalls.txt" --min-rate 0.95)
+[[ $strict -eq 0 ]] || wire_excuses=()
+"$py" "$here/check_serve_wire.py" --config "$config" "${wire_excuses[@]}" --run-log "$tmp/run.log" \
   --expect-enables="$enables" "$capture" || fail "wire check"
+# The virtual clock excuses nothing: every step shown at its first attempt.
+excused=$((retries + refusals + idle_resets + reset_retries + stale_resends + boot_retries))
+if [[ $strict -eq 1 && ($excused -ne 0 || -n $not_shown) ]]; then
+  fail "on the virtual clock, where the guest keeps every deadline: timing-watchdog retries" \
+    "$retries, starts refused after one $refusals, idle resets $idle_resets, resets sent again" \
+    "$reset_retries, stale commands $stale_resends, boot retries $boot_retries; not shown:${not_shown:- none}"
+fi
 # What passed, in the steps' order; a step not shown in this guest is named as such.
 shown_steps="idle state published; step 2 paper done; step 3 stream done; step 4 e-stop during"
 shown_steps+=" preparation: never started; step 5 e-stop while running: SS1 -> STO; step 6 reset,"
