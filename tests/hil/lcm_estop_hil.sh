@@ -82,6 +82,7 @@ for ((attempt = 1; attempt <= 5; ++attempt)); do
     prepared_ok=1
     break
   elif grep -q "$timing_stop" "$tmp/run.log"; then
+    guest_timing "attempt $attempt: the run stopped on guest timing before an e-stop arrived: $(grep "safety stop" "$tmp/run.log" | head -1)"
     echo "NOTE: attempt $attempt: the run stopped on guest timing before an e-stop arrived:"
     grep "safety stop" "$tmp/run.log" | head -1
   else
@@ -107,9 +108,11 @@ for ((attempt = 1; attempt <= 5; ++attempt)); do
   grep -q "command accepted: e-stop" "$tmp/run.log" ||
     grep -q "$timing_stop" "$tmp/run.log" || fail "the e-stop sent while the run ran was never received"
   grep -q "$timing_stop" "$tmp/run.log" || fail "the run was not stopped by the e-stop"
+  guest_timing "attempt $attempt: the run stopped on guest timing before the e-stop arrived: $(grep "safety stop" "$tmp/run.log" | head -1)"
   echo "NOTE: attempt $attempt: the run stopped on guest timing before the e-stop arrived:"
   grep "safety stop" "$tmp/run.log" | head -1
 done
+guest_timing "e-stop while running not shown in this guest: every attempt stopped on its own timing"
 echo "NOTE: e-stop while running not shown in this guest: every attempt stopped on its own timing"
 echo "      watchdog first (the guest cannot hold 1 kHz here)"
 exit 77

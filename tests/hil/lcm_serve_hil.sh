@@ -39,6 +39,7 @@ wait_for "$tmp/run.log" "serving: waiting" 20 || fail "no service"
 wait_for "$tmp/run.log" "refused (unknown key)" 10 || fail "a start with an unknown key was not refused"
 grep -q "starting " "$tmp/run.log" && fail "a start with an unknown key ran"
 reset_timing_stop() {  # a stop the guest's timing latched is reset (a reset of nothing is harmless)
+  guest_timing "a stop latched while idle: $(grep -m1 "torque off (STO)" "$tmp/run.log")"
   serve_reset "$dualv" "$tmp/keys/lab1.key" "$url" "$tmp/run.log" || fail "a signed reset was not received"
 }
 ran=0
@@ -51,12 +52,14 @@ for ((attempt = 1; attempt <= 3 && ran == 0; ++attempt)); do
   if grep -q "paper.yaml done" "$tmp/run.log"; then
     ran=1
   elif timing_stops <"$tmp/out/faults.jsonl"; then
+    guest_timing "attempt $attempt: the guest's timing stopped the loop (the start was answered): $(grep "paper.yaml STOPPED\|refused: the last stop" "$tmp/run.log" | tail -1)"
     echo "NOTE: attempt $attempt: the guest's timing stopped the loop (the start was answered):"
     grep "paper.yaml STOPPED\|refused: the last stop" "$tmp/run.log" | tail -1
   else
     fail "the signed start neither ran the program nor met a timing stop"
   fi
 done
+[[ $ran -eq 1 ]] || guest_timing "'a signed start runs the program to its end' not shown in this guest"
 [[ $ran -eq 1 ]] || echo "NOTE: 'a signed start runs the program to its end' not shown in this guest"
 "$dualv" estop --lcm "$url" >/dev/null
 wait_for "$tmp/run.log" "a reset is needed" 10 || fail "e-stop while idle not latched"

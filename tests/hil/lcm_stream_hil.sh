@@ -72,11 +72,13 @@ for ((try = 1; try <= 3 && shown == 0; ++try)); do
     [[ -n "$followed" && "$followed" -gt 50 ]] || fail "too few setpoints followed: '$followed'"
     shown=1
   elif faults_since "$f0" | timing_stops || [[ $last == *"command stream stale"* ]]; then
+    guest_timing "try $try: the guest's timing stopped the stream: $last"
     echo "NOTE: try $try: the guest's timing stopped the stream: $last"
   else
     fail "the complete stream ended otherwise: $last"
   fi
 done
+[[ $shown -eq 1 ]] || guest_timing "'a complete stream ends normally' not shown in this guest"
 [[ $shown -eq 1 ]] || echo "NOTE: 'a complete stream ends normally' not shown in this guest"
 
 # 2. The streamer killed mid-stream: the watchdog stops the run (SS1), cause logged.
@@ -95,6 +97,7 @@ for ((try = 1; try <= 8 && shown == 0; ++try)); do
     kill -KILL "$streamer"
     wait "$streamer" 2>/dev/null
     streamer=
+    guest_timing "try $try: no answer to the stream's start in 30 s (the guest's commands came late)"
     echo "NOTE: try $try: no answer to the stream's start in 30 s (the guest's commands came late)"
     continue
   fi
@@ -103,6 +106,7 @@ for ((try = 1; try <= 8 && shown == 0; ++try)); do
     wait "$streamer" 2>/dev/null
     streamer=
     faults_since "$f0" | timing_stops || fail "the second stream was refused without a stop"
+    guest_timing "try $try: a timing watchdog latched a stop again after the reset: stream refused"
     echo "NOTE: try $try: a timing watchdog latched a stop again after the reset: stream refused"
     continue
   fi
@@ -114,6 +118,7 @@ for ((try = 1; try <= 8 && shown == 0; ++try)); do
   if [[ $early -gt $stops ]]; then
     faults_since "$f0" | timing_stops || grep "stream STOPPED" "$tmp/run.log" | tail -1 |
       grep -q "command stream stale" || fail "the stream stopped while it was still sent"
+    guest_timing "try $try: the guest's timing stopped the stream before the streamer was killed"
     echo "NOTE: try $try: the guest's timing stopped the stream before the streamer was killed"
     continue
   fi
@@ -124,12 +129,14 @@ for ((try = 1; try <= 8 && shown == 0; ++try)); do
       grep -q '"reaction":"SS1"' || fail "no SS1 'command stream stale' in the fault log"
     shown=1
   elif faults_since "$f0" | timing_stops; then
+    guest_timing "try $try: a timing watchdog stopped the loop before the stream went stale"
     echo "NOTE: try $try: a timing watchdog stopped the loop before the stream went stale"
   else
     fail "the stop's cause is not 'command stream stale'"
   fi
 done
 [[ $shown -eq 1 ]] ||
+  guest_timing "the killed streamer's stop not shown in this guest: each of 8 tries met a timing stop first"
   echo "NOTE: the killed streamer's stop not shown in this guest: each of 8 tries met a timing stop first"
 
 # 3. After that stop only a signed reset re-enables starts.
