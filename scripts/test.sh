@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The whole test suite, as CI runs it: install dependencies, build with warnings as
 # errors, run every test (unit, property, and the vcan hardware-in-the-loop tests in a
-# user-mode-linux guest), build and install the Debian package and run the installed binary,
+# user-mode-linux guest: on its real clock, then the closed loops again on a virtual clock in a
+# time-travel kernel built from Debian's linux-source-6.1), build and install the Debian package and run the installed binary,
 # then rebuild with AddressSanitizer + UBSan and run the tests again, rebuild the threaded
 # tests with ThreadSanitizer and run them, and run every libFuzzer target (fuzz/) for a
 # bounded time on its seed corpus (scripts/fuzz.sh; a finding fails the suite).
@@ -64,28 +65,33 @@ cmake -S . -B build/release -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDUALV_WERROR=ON 
 cmake --build build/release -j"$jobs"
 phase "tests (release)"
 ctest --test-dir build/release --output-on-failure -j"$jobs" --timeout 900 -LE hil
-# The virtual-clock HIL tests' guest kernel (time travel; tests/hil/README.md "Guest clocks"):
-# built once from Debian's linux-source-6.1, kept in build/uml-kernel while its inputs hold.
-phase "time-travel UML kernel (tests/hil/uml_kernel/build.sh)"
-bash tests/hil/uml_kernel/build.sh build/uml-kernel
-export DUALV_HIL_REQUIRE_VIRTUAL=1  # a virtual-clock test without its kernel fails, never skips
 # HIL tests boot a user-mode-linux guest whose timing is coarse (ms-scale stalls on a shared
 # machine): one at a time, and a case that fails is run once more (it must then pass).
-phase "hardware-in-the-loop tests (vcan in user-mode-linux)"
+phase "hardware-in-the-loop tests on the guest's real clock (vcan in user-mode-linux)"
 # tests/hil/KNOWN_FAILING lists HIL tests that fail since the always-on loop (issue 12) and
 # are being fixed: they run and report below, but do not stop this script. Every other HIL
 # test gates as before. The list must shrink to nothing; see the file for each reason.
 # (awk, not grep: an empty list is no error, where grep's exit 1 would end this script)
 known=$(awk '!/^#/ && NF {print $1}' tests/hil/KNOWN_FAILING | paste -sd'|' -)
 if [[ -n $known ]]; then
-  ctest --test-dir build/release --output-on-failure --timeout 900 -L hil -E "^(${known})\$" \
-    --repeat until-pass:2
+  ctest --test-dir build/release --output-on-failure --timeout 900 -L hil -LE hil_virtual_clock \
+    -E "^(${known})\$" --repeat until-pass:2
   phase "known-failing HIL tests (reported, not gating: tests/hil/KNOWN_FAILING)"
   ctest --test-dir build/release --output-on-failure --timeout 900 -L hil -R "^(${known})\$" ||
     echo "KNOWN FAILING (not gating, tests/hil/KNOWN_FAILING): ${known}"
 else
-  ctest --test-dir build/release --output-on-failure --timeout 900 -L hil --repeat until-pass:2
+  ctest --test-dir build/release --output-on-failure --timeout 900 -L hil -LE hil_virtual_clock \
+    --repeat until-pass:2
 fi
+# The same closed loops on the virtual clock (tests/hil/README.md "Guest clocks: real and
+# virtual"), in a time-travel guest kernel built once from Debian's linux-source-6.1 and kept in
+# build/uml-kernel while its inputs hold. There the guest keeps every deadline: nothing is
+# excused as guest timing and a failure is not run again.
+phase "time-travel UML kernel (tests/hil/uml_kernel/build.sh)"
+bash tests/hil/uml_kernel/build.sh build/uml-kernel
+phase "hardware-in-the-loop tests on the virtual clock"
+DUALV_HIL_REQUIRE_VIRTUAL=1 ctest --test-dir build/release --output-on-failure --timeout 900 \
+  -L hil_virtual_clock
 
 phase "package: build the .deb, install it, run the installed dualv"
 bash scripts/package-test.sh --jobs "$jobs"

@@ -26,6 +26,7 @@ if [[ -x $out/linux && -f $out/stamp && "$(cat "$out/stamp")" == "$stamp" ]]; th
 fi
 
 mkdir -p "$out"
+out=$(cd "$out" && pwd)  # absolute: the build below runs in the source folder
 work=$(mktemp -d "$out/src.XXXXXX")
 trap 'rm -rf "$work"' EXIT
 echo "uml_kernel: building $out/linux from $tarball ($version)"
