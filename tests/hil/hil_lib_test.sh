@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # hil_lib.sh's judgement of a stop (first_stop_causes, timing_stops_only) on hand-made
-# faults.jsonl lines, on the host: what every HIL script's retry-or-fail decision builds on.
+# faults.jsonl lines, on the host: what every HIL script's retry-or-fail decision builds on;
+# guest_timing (no excuse on the virtual clock) and run_in_vcan.sh's clock options.
 # Each verdict must be able to come out both ways.
 set -uo pipefail
 . "$(dirname "$0")/hil_lib.sh"
@@ -47,5 +48,32 @@ expect_timing "its EMCY 60 cycles later" 1 < <(printf '%s\n' "$quick" "$late1")
 expect_timing "no EMCY" 1 < <(printf '%s\n' "$quick")
 expect_causes "EMCY in the same cycle: once" "drive fault drive 1: EMCY 8250h" \
   < <(printf '%s\n' "$emcy1" "${quick/190/192}")
+
+# guest_timing: excuses on the real clock (returns 0, prints nothing), fails on the virtual one.
+expect_guest_timing() {  # expect_guest_timing NAME CLOCK RC
+  local rc out
+  out=$(DUALV_HIL_CLOCK=$2 bash -c '. "$1"; guest_timing "a stop"; echo excused' _ "$(dirname "$0")/hil_lib.sh")
+  rc=$?
+  [[ $rc == "$3" ]] || { echo "FAIL $1: guest_timing exited $rc, expected $3 ($out)"; failures=$((failures + 1)); }
+  if [[ $3 == 0 ]]; then
+    [[ $out == excused ]] || { echo "FAIL $1: [$out]"; failures=$((failures + 1)); }
+  else
+    [[ $out == "FAIL (virtual clock"*"a stop" ]] || { echo "FAIL $1: [$out]"; failures=$((failures + 1)); }
+  fi
+}
+expect_guest_timing "real clock: excused" real 0
+expect_guest_timing "no clock named: the real one" "" 0
+expect_guest_timing "virtual clock: a failure" virtual 1
+
+# run_in_vcan.sh's clock options, before any guest boots.
+expect_wrapper() {  # expect_wrapper NAME RC ARGS...
+  local rc
+  DUALV_HIL_REQUIRE_VIRTUAL=${require:-0} "$(dirname "$0")/run_in_vcan.sh" "${@:3}" true >/dev/null 2>&1
+  rc=$?
+  [[ $rc == "$2" ]] || { echo "FAIL $1: run_in_vcan.sh exited $rc, expected $2"; failures=$((failures + 1)); }
+}
+expect_wrapper "an unknown clock" 2 --clock sundial
+expect_wrapper "no time-travel kernel: skipped" 77 --clock virtual --kernel /nonexistent/linux
+require=1 expect_wrapper "no time-travel kernel where required: an error" 125 --clock virtual --kernel /nonexistent/linux
 
 [[ $failures -eq 0 ]] && echo "hil_lib_test: PASS" || { echo "hil_lib_test: $failures failed"; exit 1; }
