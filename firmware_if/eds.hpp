@@ -5,7 +5,7 @@
 // What is read: object sections [1000], sub-index sections [1018sub0], [1018sub1]...
 // (index and sub-index in hex), with the keys ParameterName, ObjectType (default 7 = VAR),
 // DataType, AccessType (ro wo rw rwr rww const), PDOMapping (0/1), DefaultValue,
-// SubNumber (ARRAY/RECORD), LowLimit, HighLimit; the object lists [MandatoryObjects],
+// SubNumber (ARRAY, RECORD, DEFSTRUCT), LowLimit, HighLimit; the object lists [MandatoryObjects],
 // [OptionalObjects], [ManufacturerObjects] (SupportedObjects=n, 1=0x1000, ...). Numbers
 // are decimal, hex (0x...) or octal (leading 0), negative for signed values; DefaultValue
 // may add $NODEID (CiA 306 4.6.3.3: "$NODEID+0x180", "0x180+$NODEID").
@@ -64,7 +64,7 @@ struct EdsObject {
   std::uint16_t index = 0;
   std::string name;
   ObjectType object_type = ObjectType::kVar;
-  std::uint8_t sub_number = 0;  // SubNumber (ARRAY/RECORD); 0 for VAR
+  std::uint8_t sub_number = 0;  // SubNumber (ARRAY, RECORD, DEFSTRUCT); 0 otherwise
   std::vector<EdsEntry> entries;
   int line = 0;
 };

@@ -7,8 +7,10 @@
 // eds.hpp promises, checked against the input text itself:
 //   - objects in strictly ascending index order, each at a line of the input that is the
 //     section header [IIII] of its index; entries in strictly ascending sub-index order, of
-//     their object's index; a VAR is its own sub-index 0, an ARRAY/RECORD has SubNumber
-//     entries;
+//     their object's index; a VAR (or NULL, DOMAIN, DEFTYPE) is its own sub-index 0, an
+//     ARRAY, RECORD or DEFSTRUCT (a record type's definition, CiA 301 7.4.3) has SubNumber
+//     entries (the campaign found this target asking it of ARRAY and RECORD only; seed
+//     regression_defstruct_with_sub_indices.eds);
 //   - every object in exactly one of [MandatoryObjects], [OptionalObjects],
 //     [ManufacturerObjects], and every listed index an object; object()/entry() find each;
 //   - a DefaultValue read as a number fits its entry's data type;
@@ -105,7 +107,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     for (const auto* list : {&e.mandatory, &e.optional, &e.manufacturer})
       listed += static_cast<int>(std::count(list->begin(), list->end(), o.index));
     FUZZ_CHECK(listed == 1);
-    if (o.object_type == eds::ObjectType::kArray || o.object_type == eds::ObjectType::kRecord)
+    if (o.object_type == eds::ObjectType::kArray || o.object_type == eds::ObjectType::kRecord ||
+        o.object_type == eds::ObjectType::kDefStruct)
       FUZZ_CHECK(o.entries.size() == o.sub_number);
     else
       FUZZ_CHECK(o.entries.size() == 1 && o.entries[0].subindex == 0);

@@ -8,8 +8,9 @@
 #
 # Usage: scripts/fuzz.sh [--time SECONDS] [--runs N] [--jobs N] [TARGET...]
 #   --time S   run each target for S seconds (default 20: the bounded run scripts/test.sh does)
-#   --runs N   run each target for N executions (the campaign: --runs 10000000); with
-#              --time too, whichever comes first
+#   --runs N   a campaign: run each target for N executions (--runs 10000000); with --time
+#              too, whichever comes first. A campaign resumes from fuzz/campaign/<target>/ and
+#              adds to it and to fuzz/campaign/ledger.tsv (below)
 #   --keep-going  do not stop a target at its first finding (libFuzzer -fork=1
 #              -ignore_crashes=1): a campaign goes on past a known, not yet fixed finding
 #   --jobs N   compile with N jobs and run N targets at a time (default: nproc)
@@ -19,8 +20,15 @@
 #              build/sanitize, whose tests ran under the same ASan + UBSan): only the targets are
 #              built there (default: build/fuzz, configured here)
 #   TARGET     some targets only (default: all), e.g. firmware_if_decoders sdo_client
-# New inputs that add coverage go to build/fuzz/corpus/<target>/ (kept between runs, so a
-# campaign resumes where the last one stopped); fuzz/corpus/ is only read.
+# New inputs that add coverage go to build/fuzz/corpus/<target>/ (kept between runs); fuzz/corpus/
+# (the seeds) is only read.
+# A campaign outlives the machine it ran on: it also reads fuzz/campaign/<target>/, and when it
+# ends without a finding (also when stopped early with SIGINT: libFuzzer's exit 72 after its
+# final stats) it merges what it found into that folder (libFuzzer -merge=1: the fewest inputs
+# with the same features, beyond what the seeds have) and appends a line to
+# fuzz/campaign/ledger.tsv (date, commit, target, executions, seconds, coverage, findings, how
+# it ended), then prints each target's executions on the ledger. Commit both: the next
+# campaign, on any machine, resumes there. A run with a finding adds nothing to either.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
@@ -41,7 +49,7 @@ while [ $# -gt 0 ]; do
     --build) build="$2"; shift 2 ;;
     --keep-going) keep_going=1; shift ;;
     --workers) workers="$2"; shift 2 ;;
-    -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
     -*) echo "fuzz.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
     *) targets+=("$1"); shift ;;
   esac
@@ -77,6 +85,38 @@ build=$(realpath "$build")  # absolute: with --workers the fuzzers run in a fold
 # loaded 2-core machine is slow; a real hang runs forever).
 declare -A MAX_LEN=([robot_config]=16384 [program]=4096 [bus_attack]=2048 [command_verifier]=2048
   [eds]=32768)
+campaign=$root/fuzz/campaign
+ledger=$campaign/ledger.tsv
+fuzz_env() {
+  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 "$@"
+}
+# save_campaign TARGET WORK EXECS SECS COV ENDED: merges WORK and fuzz/campaign/TARGET into the
+# fewest inputs that keep their features beyond the seeds' (the seeds go in first, so what they
+# cover is had already, and come out after), replaces fuzz/campaign/TARGET with them and appends
+# the run to the ledger.
+save_campaign() {
+  local t=$1 work=$2 execs=$3 secs=$4 cov=$5 ended=$6 dest="$campaign/$1" tmp f from=()
+  tmp=$(mktemp -d "$build/merge.XXXXXX")
+  cp "$root/fuzz/corpus/$t"/* "$tmp/"
+  from=("$work")
+  [ ! -d "$dest" ] || from+=("$dest")
+  if ! fuzz_env "$build/fuzz/${t}_fuzz" -merge=1 -timeout=120 -rss_limit_mb=2048 \
+      -max_len="${MAX_LEN[$t]:-512}" "$tmp" "${from[@]}" >"$build/logs/$t.merge.log" 2>&1; then
+    rm -rf "$tmp"
+    return 1
+  fi
+  for f in "$root/fuzz/corpus/$t"/*; do rm -f "$tmp/$(basename "$f")"; done
+  rm -rf "$dest"
+  mkdir -p "$campaign"
+  mv "$tmp" "$dest"
+  chmod 755 "$dest"
+  [ -f "$ledger" ] ||
+    printf 'date\tcommit\ttarget\texecutions\tseconds\tcoverage\tfindings\tended\n' >"$ledger"
+  # One line at a time (targets run side by side): short appends, each a single write.
+  printf '%s\t%s\t%s\t%s\t%s\t%s\t0\t%s\n' "$(date -u +%F)" \
+    "$(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo '?')" "$t" "$execs" "$secs" "$cov" "$ended" \
+    >>"$ledger"
+}
 # fuzz_one TARGET: runs it; its summary line and verdict go to $build/logs/TARGET.{summary,failed}
 # (the targets run side by side, one per job: each libFuzzer process is single-threaded).
 fuzz_one() {
@@ -105,10 +145,11 @@ fuzz_one() {
     wlogs=()
     for ((i = 0; i < workers; ++i)); do wlogs+=("$wdir/fuzz-$i.log"); done
   fi
+  local dirs=("$work" "$root/fuzz/corpus/$t")
+  [ -z "$runs" ] || [ ! -d "$campaign/$t" ] || dirs+=("$campaign/$t")
   (
     [ "$workers" -eq 1 ] || cd "$wdir"
-    ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-      "$build/fuzz/${t}_fuzz" "${limit[@]}" "${opts[@]}" "$work" "$root/fuzz/corpus/$t"
+    fuzz_env "$build/fuzz/${t}_fuzz" "${limit[@]}" "${opts[@]}" "${dirs[@]}"
   ) >"$log" 2>&1 || status=$?
   secs=$(( $(date +%s) - start ))
   # The sum of every worker's executions; the coverage of the one that saw most.
@@ -126,6 +167,17 @@ fuzz_one() {
   slow=$(find "$findings" -type f -name 'slow-unit-*' | wc -l)
   note=""
   [ "$slow" -eq 0 ] || note="  (slow units, over 10 s of wall time each: $slow, kept in $findings)"
+  # SIGINT: libFuzzer prints its final stats and exits 72; what ran until then had no finding.
+  local ended=completed
+  if [ "$status" -eq 72 ] && [ "$n" -eq 0 ] && ! grep -q 'ERROR: libFuzzer\|runtime error' "$log"; then
+    ended=interrupted
+    status=0
+    note+="  (stopped early with SIGINT)"
+  fi
+  if [ -n "$runs" ] && [ "$status" -eq 0 ] && [ "$n" -eq 0 ] && [ -n "$execs" ]; then
+    save_campaign "$t" "$work" "$execs" "$secs" "${cov:-?}" "$ended" ||
+      note+="  (fuzz/campaign/$t not updated: the merge failed, see $build/logs/$t.merge.log)"
+  fi
   printf '%-22s %12s execs %6s s  coverage %6s  findings %s%s\n' "$t" "${execs:-?}" "$secs" \
     "${cov:-?}" "$n" "$note" >"$build/logs/$t.summary"
   if [ "$status" -ne 0 ] || [ "$n" -ne 0 ]; then
@@ -156,4 +208,9 @@ for t in "${targets[@]}"; do
 done
 echo "== fuzz summary =="
 printf '%s\n' "${summary[@]}"
+if [ -n "$runs" ] && [ -f "$ledger" ]; then
+  echo "== executions on the campaign ledger (fuzz/campaign/ledger.tsv; commit fuzz/campaign/) =="
+  awk -F'\t' 'NR > 1 { n[$3] += $4; r[$3]++ } END { for (t in n) printf "%-22s %12d execs in %d runs\n", t, n[t], r[t] }' \
+    "$ledger" | sort
+fi
 exit $failed

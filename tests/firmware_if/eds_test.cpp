@@ -181,6 +181,60 @@ TEST(Eds, ParsesObjectsAndSubIndices) {
   EXPECT_EQ(torque->low_limit, "-32768");
 }
 
+// A DEFSTRUCT (ObjectType 6: a record type's definition, CiA 301 7.4.3, e.g. 0040h-025Fh) has
+// sub-index sections as a RECORD does; a DEFTYPE (5) is one entry, as a VAR is.
+TEST(Eds, DefStructHasSubIndicesDefTypeHasNone) {
+  const std::string defs = R"(
+[0007]
+ParameterName=UNSIGNED32
+ObjectType=0x5
+DataType=0x0007
+AccessType=ro
+DefaultValue=32
+
+[0040]
+ParameterName=A record type
+ObjectType=0x6
+SubNumber=2
+
+[0040sub0]
+ParameterName=Highest sub-index supported
+DataType=0x0005
+AccessType=ro
+DefaultValue=1
+
+[0040sub1]
+ParameterName=First member's type
+DataType=0x0006
+AccessType=ro
+DefaultValue=0x0007
+
+[ManufacturerObjects]
+SupportedObjects=2
+1=0x0007
+2=0x0040
+)";
+  const std::string text = kLists + kObjects + defs;
+  const Eds eds = parse(text);
+  const EdsObject* s = eds.object(0x0040);
+  ASSERT_NE(s, nullptr);
+  EXPECT_EQ(s->object_type, ObjectType::kDefStruct);
+  EXPECT_EQ(s->sub_number, 2);
+  ASSERT_EQ(s->entries.size(), 2u);
+  EXPECT_EQ(s->entries[1].subindex, 1);
+  EXPECT_EQ(s->entries[1].line, line_of(text, "[0040sub1]"));
+  EXPECT_EQ(default_value(s->entries[1], 1), 7u);
+  const EdsObject* t = eds.object(0x0007);
+  ASSERT_NE(t, nullptr);
+  EXPECT_EQ(t->object_type, ObjectType::kDefType);
+  ASSERT_EQ(t->entries.size(), 1u);
+  EXPECT_EQ(t->entries[0].subindex, 0);
+  EXPECT_EQ(eds.manufacturer, (std::vector<std::uint16_t>{0x0007, 0x0040}));
+  // SubNumber is required of a DEFSTRUCT as of a RECORD.
+  const std::string no_count = replace(text, "ObjectType=0x6\nSubNumber=2\n", "ObjectType=0x6\n");
+  EXPECT_EQ(refused(no_count).line(), line_of(no_count, "[0040]\n"));
+}
+
 TEST(Eds, NodeIdInDefaultValue) {
   const Eds eds = parse(kLists + kObjects);
   EXPECT_EQ(default_value(*eds.entry(0x1400, 1), 5), 0x205u);
