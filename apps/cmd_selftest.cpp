@@ -460,6 +460,15 @@ Outcome await_external_stop(const RobotConfig& cfg, const trajectory::Program& p
   return o;
 }
 
+// A scenario that could not run (e.g. its start refused: a stop latched while idle, after
+// the reset before it): the loop's fault events since, into the log, so the stop that refused
+// it reaches --fault-log with the rest.
+void keep_loop_events(Backend& backend, std::vector<safety::FaultEvent>& log) {
+  backend.machine().pump();
+  safety::FaultEvent e;
+  while (backend.machine().executor().safety().log().try_pop(e)) log.push_back(e);
+}
+
 struct SelftestArgs {
   std::string config;
   std::string program;
@@ -530,9 +539,15 @@ int selftest(const SelftestArgs& args) {
                "the e-stop)\n",
                args.await_stop);
     std::string cause;
-    row("external stop", safety::to_string(expected),
-        await_external_stop(cfg, program, can ? *can : *sim, expected, args.await_stop, log,
-                            cause));
+    Backend& backend = can ? *can : *sim;
+    Outcome o;
+    try {
+      o = await_external_stop(cfg, program, backend, expected, args.await_stop, log, cause);
+    } catch (const std::exception& e) {
+      o.note = e.what();
+      keep_loop_events(backend, log);
+    }
+    row("external stop", safety::to_string(expected), o);
   }
   for (const Scenario& sc : scenarios(cfg)) {
     if (args.await_stop > 0.0 && args.only.empty()) break;
@@ -551,6 +566,7 @@ int selftest(const SelftestArgs& args) {
       o = run_scenario(cfg, program, backend, sc, args.inject_at, log);
     } catch (const std::exception& e) {
       o.note = e.what();
+      keep_loop_events(backend, log);
     }
     row(sc.name, safety::to_string(sc.expected), o);
   }

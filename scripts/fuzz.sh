@@ -168,8 +168,19 @@ fuzz_one() {
   note=""
   [ "$slow" -eq 0 ] || note="  (slow units, over 10 s of wall time each: $slow, kept in $findings)"
   # SIGINT: libFuzzer prints its final stats and exits 72; what ran until then had no finding.
-  local ended=completed
-  if [ "$status" -eq 72 ] && [ "$n" -eq 0 ] && ! grep -q 'ERROR: libFuzzer\|runtime error' "$log"; then
+  # Send it to the fuzzer processes, not to this script (`pkill -INT -f <target>_fuzz`): with
+  # --workers each worker exits 72 and the process that started them (through std::system,
+  # which ignores SIGINT meanwhile) then exits 1.
+  local ended=completed interrupted=0
+  if [ "$n" -eq 0 ] && ! grep -q 'ERROR: libFuzzer\|runtime error' "${wlogs[@]}" "$log" 2>/dev/null; then
+    if [ "$workers" -eq 1 ]; then
+      [ "$status" -ne 72 ] || interrupted=1
+    elif [ "$status" -eq 1 ]; then
+      interrupted=1
+      for i in "${wlogs[@]}"; do grep -q 'libFuzzer: run interrupted' "$i" || interrupted=0; done
+    fi
+  fi
+  if [ "$interrupted" = 1 ]; then
     ended=interrupted
     status=0
     note+="  (stopped early with SIGINT)"

@@ -367,8 +367,14 @@ std::uint64_t Machine::take(
       if (e.kind == control::LoopEvent::Kind::kRefused) {
         // Moved between preparation and take-over (e.g. still coasting to rest): again.
         if (e.reason == control::RefuseReason::kMoved && attempt < 20) break;
+        // A latched stop is named: a stop may have latched after the caller last looked
+        // (e.g. a timing watchdog while idle), and its cause is what the operator must fix.
+        const std::uint32_t latched = executor_->snapshot().latched;
         throw std::runtime_error(std::string("the control loop refused the start: ") +
-                                 control::to_string(e.reason));
+                                 control::to_string(e.reason) +
+                                 (e.reason == control::RefuseReason::kLatched && latched != 0
+                                      ? " (latched: " + safety::describe_faults(latched) + ")"
+                                      : std::string()));
       }
     }
     for (int k = 0; k < 10; ++k) pump();
