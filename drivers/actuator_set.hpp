@@ -15,23 +15,23 @@ inline constexpr int kMaxDrives = 8;
 
 // What the layers above need to know of a drive's CiA 402 / NMT state.
 enum class DriveState : std::uint8_t {
-  kOffline = 0,   // no heartbeat / not booted / NMT not operational
-  kDisabled,      // switch on disabled / ready to switch on / switched on: no torque
-  kEnabled,       // operation enabled: follows the target torque
-  kQuickStop,     // quick stop active (drive decelerates by itself)
-  kFault,         // fault reaction active or fault
+  kOffline = 0,  // no heartbeat / not booted / NMT not operational
+  kDisabled,     // switch on disabled / ready to switch on / switched on: no torque
+  kEnabled,      // operation enabled: follows the target torque
+  kQuickStop,    // quick stop active (drive decelerates by itself)
+  kFault,        // fault reaction active or fault
 };
 
 const char* to_string(DriveState s) noexcept;
 
 struct DriveFeedback {
   DriveState state = DriveState::kOffline;
-  double position = 0.0;          // joint angle [rad], encoder-quantised, zero as configured
-  bool fresh = false;             // a new position arrived this cycle
-  std::uint16_t statusword = 0;   // raw CiA 402 6041h, for telemetry
-  std::uint16_t last_emcy = 0;    // last EMCY error code (0 = none or cleared)
-  bool stop_input = false;        // hardwired e-stop circuit seen on a digital input (60FDh)
-  double torque_actual = 0.0;     // [N m] when the drive reports it, else the last command
+  double position = 0.0;         // joint angle [rad], encoder-quantised, zero as configured
+  bool fresh = false;            // a new position arrived this cycle
+  std::uint16_t statusword = 0;  // raw CiA 402 6041h, for telemetry
+  std::uint16_t last_emcy = 0;   // last EMCY error code (0 = none or cleared)
+  bool stop_input = false;       // hardwired e-stop circuit seen on a digital input (60FDh)
+  double torque_actual = 0.0;    // [N m] when the drive reports it, else the last command
 };
 
 struct ActuatorFeedback {
@@ -42,11 +42,11 @@ struct ActuatorFeedback {
 
 // What every drive should do this cycle. Torques are only applied by drives in kEnabled.
 enum class DriveRequest : std::uint8_t {
-  kHold = 0,     // keep the current CiA 402 state
-  kEnable,       // walk to Operation Enabled (target torque forced to 0 until there)
-  kDisable,      // disable voltage / STO-like: torque off at once (CiA 402 transition 7/9/12)
-  kQuickStop,    // the drive's own quick stop (605Ah)
-  kFaultReset,   // rising edge of controlword bit 7
+  kHold = 0,    // keep the current CiA 402 state
+  kEnable,      // walk to Operation Enabled (target torque forced to 0 until there)
+  kDisable,     // disable voltage / STO-like: torque off at once (CiA 402 transition 7/9/12)
+  kQuickStop,   // the drive's own quick stop (605Ah)
+  kFaultReset,  // rising edge of controlword bit 7
 };
 
 struct ActuatorCommand {
@@ -57,9 +57,9 @@ struct ActuatorCommand {
 
 enum class IoStatus : std::uint8_t {
   kOk = 0,
-  kStale,      // some drive's feedback did not arrive this cycle (see DriveFeedback::fresh)
-  kBusError,   // bus-off or a send failed; details in the implementation's counters
-  kNotReady,   // not started / not booted
+  kStale,     // some drive's feedback did not arrive this cycle (see DriveFeedback::fresh)
+  kBusError,  // bus-off or a send failed; details in the implementation's counters
+  kNotReady,  // not started / not booted
 };
 
 class ActuatorSet {

@@ -2,7 +2,6 @@
 // The whole wire contract in one include (pure data and codecs, no I/O). Prefer the
 // individual headers where only one idea is needed.
 #include "firmware_if/bus_layout.hpp"
-#include "firmware_if/bus_layout.hpp"
 #include "firmware_if/byte_order.hpp"
 #include "firmware_if/can_frame.hpp"
 #include "firmware_if/can_frame_bits.hpp"

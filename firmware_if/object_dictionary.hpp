@@ -208,7 +208,8 @@ inline constexpr OdEntry kInterpolationPeriodIndex{0x60C2, 2,     kInteger8,
 // 16..31 manufacturer specific.
 inline constexpr OdEntry kDigitalInputs{0x60FD, 0, kUnsigned32, kRo, true, "digital inputs"};
 // The e-stop circuit (hardwired to STO) is wired back to this input, so software sees
-// it (docs/architecture.md "Safety"). A manufacturer-specific bit: configurable, this is the default.
+// it (docs/architecture.md "Safety"). A manufacturer-specific bit: configurable, this is the
+// default.
 inline constexpr std::uint32_t kDigitalInputEstopBit = 16;
 inline constexpr std::uint32_t kDigitalInputEstopMask = 1u << kDigitalInputEstopBit;
 // 6502h supported drive modes: bit (mode - 1) set for each mode; bit 9 = CST.

@@ -1,6 +1,7 @@
 #pragma once
 // The safety filter: sits between the control law and ActuatorSet::write() and owns the
-// final torque and DriveRequest (docs/architecture.md: drives -> ... -> controller -> SAFETY -> drives).
+// final torque and DriveRequest (docs/architecture.md: drives -> ... -> controller -> SAFETY ->
+// drives).
 //
 // Every cycle, update() (noexcept, no allocation, no syscalls):
 //   1. takes external stop/reset requests (EstopLatch, any thread);

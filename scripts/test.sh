@@ -6,7 +6,8 @@
 # then rebuild with AddressSanitizer + UBSan and run the tests again, rebuild the threaded
 # tests with ThreadSanitizer and run them, and run every libFuzzer target (fuzz/) for a
 # bounded time on its seed corpus (scripts/fuzz.sh; a finding fails the suite).
-# The layer check (scripts/check-layers.sh) runs first: an upward include fails the suite.
+# The layer check (scripts/check-layers.sh) and the format check run first: an upward include
+# or an unformatted source file fails the suite.
 # Usage: scripts/test.sh            (everything)
 #        DUALV_SKIP_ASAN=1 scripts/test.sh   (skip the ASan + UBSan pass; fuzz then builds build/fuzz)
 #        DUALV_SKIP_TSAN=1 scripts/test.sh   (skip the ThreadSanitizer pass)
@@ -49,6 +50,16 @@ bash scripts/install-deps.sh
 # The layers (docs/architecture.md "Layers"): no include may go up; seconds, so first.
 phase "layers (scripts/check-layers.sh)"
 bash scripts/check-layers.sh
+
+# The code is clang-formatted (.clang-format): seconds, so first too. The files git tracks, or
+# outside a clone every source file but the build folders'.
+phase "format (clang-format --dry-run --Werror)"
+if git rev-parse --is-inside-work-tree >/dev/null 2>&1; then
+  git ls-files -z '*.cpp' '*.hpp' '*.h' | xargs -0 clang-format --dry-run --Werror
+else
+  find . -path ./build -prune -o \( -name '*.cpp' -o -name '*.hpp' -o -name '*.h' \) -print0 |
+    xargs -0 clang-format --dry-run --Werror
+fi
 
 # ccache (scripts/install-deps.sh): the package build (scripts/package-test.sh, build/package)
 # compiles with the release build's flags, so all but the objects that bake in its install

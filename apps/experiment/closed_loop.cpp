@@ -134,8 +134,7 @@ RunResult in_process(const RobotConfig& config, const RunOptions& options, Follo
 }  // namespace
 
 RunResult run_program(const RobotConfig& config, const trajectory::Program& program,
-                      const Variant& variant, drivers::ActuatorSet& io,
-                      const RunOptions& options) {
+                      const Variant& variant, drivers::ActuatorSet& io, const RunOptions& options) {
   return on_machine(config, io, nullptr, options, true,
                     [&](Machine& m) { return m.run(program, variant, options); });
 }

@@ -39,10 +39,10 @@ Status chain_geometry(const Model& model, Data& data, const Pose& X) noexcept {
     const double l1 = ch.crank_length, l2 = ch.coupler_length;
     if (!(dd > 0.0)) return Status::kUnreachable;
     // q_i = atan2(d) + s_i gamma, gamma = acos((l1^2 + |d|^2 - l2^2) / (2 l1 |d|)) in [0, pi]
-    // (docs/architecture.md). The crank is d rotated by s_i gamma and scaled to l1; as the intersection
-    // of the two circles: a = k d + s_i m E d with k = l1 cos(gamma) / |d|
-    // = (l1^2 + |d|^2 - l2^2) / (2 |d|^2) and m = l1 sin(gamma) / |d| = sqrt(l1^2 / |d|^2 - k^2):
-    // one division and one square root (|d| itself is never needed).
+    // (docs/architecture.md). The crank is d rotated by s_i gamma and scaled to l1; as the
+    // intersection of the two circles: a = k d + s_i m E d with k = l1 cos(gamma) / |d| = (l1^2 +
+    // |d|^2 - l2^2) / (2 |d|^2) and m = l1 sin(gamma) / |d| = sqrt(l1^2 / |d|^2 - k^2): one
+    // division and one square root (|d| itself is never needed).
     const double inv_dd = 1.0 / dd;
     const double k = (l1 * l1 + dd - l2 * l2) * 0.5 * inv_dd;
     const double m2 = l1 * l1 * inv_dd - k * k;  // >= 0 iff |cos(gamma)| <= 1

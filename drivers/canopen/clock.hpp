@@ -1,7 +1,7 @@
 #pragma once
 // The clock every CANopen timeout is measured with, injected so tests step time themselves
-// (never sleeping) and every timeout is checked at T-1 and T exactly (docs/architecture.md "Safety").
-// now_ns() is monotonic; noexcept and allocation-free (real-time safe).
+// (never sleeping) and every timeout is checked at T-1 and T exactly (docs/architecture.md
+// "Safety"). now_ns() is monotonic; noexcept and allocation-free (real-time safe).
 #include <chrono>
 #include <cstdint>
 

@@ -1,11 +1,11 @@
 // Every firmware_if codec runs inside the real-time cycle: none may allocate (STYLE.md).
-// The test binary replaces the global operator new with a counting one (tests/support/allocation_counter.cpp)
-// and runs each encoder and decoder between two readings of the counter.
+// The test binary replaces the global operator new with a counting one
+// (tests/support/allocation_counter.cpp) and runs each encoder and decoder between two readings of
+// the counter.
 #include <gtest/gtest.h>
 
 #include <array>
 
-#include "tests/support/allocation_counter.hpp"
 #include "firmware_if/cia402.hpp"
 #include "firmware_if/emcy.hpp"
 #include "firmware_if/heartbeat.hpp"
@@ -13,6 +13,7 @@
 #include "firmware_if/pdo.hpp"
 #include "firmware_if/sdo.hpp"
 #include "firmware_if/sync.hpp"
+#include "tests/support/allocation_counter.hpp"
 
 namespace dualv::fw {
 namespace {

@@ -40,8 +40,7 @@ TEST(LcmDecoder, TheLayoutAssumedHereIsLcms) {
   EXPECT_EQ(buf[kProgramLengthAt + 3], 6);
   EXPECT_EQ(std::memcmp(&buf[kProgramLengthAt + 4], "paper", 6), 0);
   dualv_lcm::command_t back;
-  EXPECT_EQ(back.decode(buf.data(), 0, static_cast<int>(buf.size())),
-            static_cast<int>(buf.size()));
+  EXPECT_EQ(back.decode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
   EXPECT_EQ(back.program, "paper");
 }
 

@@ -1,13 +1,14 @@
-// The simulator's cycle allocates nothing: operator new is counted (tests/support/allocation_counter.cpp
-// replaces it for this binary) over 10,000 cycles with every realism knob on.
+// The simulator's cycle allocates nothing: operator new is counted
+// (tests/support/allocation_counter.cpp replaces it for this binary) over 10,000 cycles with every
+// realism knob on.
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "sim/plant.hpp"
 #include "sim/sim_actuator_set.hpp"
-#include "tests/support/allocation_counter.hpp"
 #include "tests/sim/sim_fixture.hpp"
+#include "tests/support/allocation_counter.hpp"
 
 namespace dualv::sim {
 namespace {

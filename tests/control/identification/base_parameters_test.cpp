@@ -7,8 +7,8 @@
 
 #include <random>
 
-#include "control/identification/regressor.hpp"
 #include "control/config/model_config.hpp"
+#include "control/identification/regressor.hpp"
 
 namespace dualv::identification {
 namespace {

@@ -7,9 +7,9 @@
 
 #include <random>
 
+#include "control/config/model_config.hpp"
 #include "control/model/dynamics.hpp"
 #include "control/model/kinematics.hpp"
-#include "control/config/model_config.hpp"
 #include "sim/plant.hpp"
 
 namespace dualv::identification {
