@@ -440,7 +440,7 @@ struct DriveEmulator::Drive {
       hb_consumer.reset();
       for (int c = 0; c < kEmulatedConsumerHeartbeats; ++c) gone(emu, kHeartbeatLost + c, false);
     } else if (canopen::PdoEngine::is_parameter(e.index)) {
-      pdos.rebuild(dict);
+      pdos.rebuild_pdo_of(dict, e.index);
     }
   }
 

@@ -56,6 +56,14 @@ void PdoEngine::rebuild(const ObjectDictionary& od) noexcept {
   }
 }
 
+void PdoEngine::rebuild_pdo_of(const ObjectDictionary& od, std::uint16_t index) noexcept {
+  for (PdoDirection d : {PdoDirection::kRpdo, PdoDirection::kTpdo})
+    for (std::uint8_t n = 1; n <= kPdosPerDirection; ++n)
+      if (index == fw::od::pdo_communication_index(d, n) ||
+          index == fw::od::pdo_mapping_index(d, n))
+        rebuild(od, d, n);
+}
+
 void PdoEngine::rebuild(const ObjectDictionary& od, PdoDirection d, std::uint8_t n) noexcept {
   namespace fo = fw::od;
   const bool rx = d == PdoDirection::kRpdo;

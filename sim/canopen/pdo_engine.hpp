@@ -67,6 +67,9 @@ class PdoEngine {
   // Re-reads every record (after set-up, a write of a record, a reset); run-time state
   // (pending RPDOs, timers, last TPDO data) starts over.
   void rebuild(const ObjectDictionary& od) noexcept;
+  // Re-reads the one PDO whose record `index` is (an SDO write of it: is_parameter(index));
+  // only that PDO's run-time state starts over.
+  void rebuild_pdo_of(const ObjectDictionary& od, std::uint16_t index) noexcept;
   // An SDO download of `value` to a record entry: 0 or the abort code (CiA 301 7.5.2.35:
   // the COB-ID may not change while valid; 7.5.2.36: mapping only while invalid, entries
   // only with sub0 = 0, sub0 = n checks every entry: 06020000h no object, 06040041h not

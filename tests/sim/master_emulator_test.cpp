@@ -11,16 +11,18 @@
 
 #include <fmt/format.h>
 
-#include "drivers/canopen/clock.hpp"
-#include "drivers/canopen/waiter.hpp"
 #include "drivers/canopen_actuator_set.hpp"
 #include "drivers/canopen_config.hpp"
 #include "drivers/canopen_setup.hpp"
 #include "sim/in_process_can_rig.hpp"
 #include "tests/sim/sim_fixture.hpp"
+#include "tests/support/can_rig_time.hpp"
 
 namespace dualv::sim {
 namespace {
+
+using dualv::test::RigClock;
+using dualv::test::RigWaiter;
 
 std::vector<fw::CanFrame> drain_all(drivers::InProcessBus& bus) {
   std::vector<fw::CanFrame> out;
@@ -29,28 +31,13 @@ std::vector<fw::CanFrame> drain_all(drivers::InProcessBus& bus) {
   return out;
 }
 
-// The master's blocking waits step the rig (and the master's clock with it) in 0.1 ms.
-class RigWaiter final : public drivers::canopen::Waiter {
- public:
-  RigWaiter(InProcessCanRig& rig, drivers::canopen::ManualClock& clock)
-      : rig_(rig), clock_(clock) {}
-  void wait_until(std::uint64_t deadline_ns) override {
-    const std::uint64_t now = rig_.now_ns();
-    rig_.step(deadline_ns > now ? std::min<std::uint64_t>(deadline_ns - now, 100'000) : 0);
-    clock_.set_ns(rig_.now_ns());
-  }
-
- private:
-  InProcessCanRig& rig_;
-  drivers::canopen::ManualClock& clock_;
-};
-
 class MasterEmulator : public ::testing::Test {
  protected:
   MasterEmulator()
       : can(drivers::load_can_config_file(test::config_file())),
         rig(test::dual_v(), load_plant_config_file(test::config_file()), can),
-        waiter(rig, clock) {}
+        clock(rig),
+        waiter(rig) {}
   void boot() {
     actuators = drivers::boot_actuator_set(rig.master_bus(), clock, waiter, can);
     ASSERT_NE(actuators, nullptr);
@@ -72,13 +59,12 @@ class MasterEmulator : public ::testing::Test {
     have_home = true;
     actuators->write(cmd);
     rig.step(can.sync_period_ns);
-    clock.set_ns(rig.now_ns());
     return r;
   }
 
   drivers::CanConfig can;
   InProcessCanRig rig;
-  drivers::canopen::ManualClock clock;
+  RigClock clock;
   RigWaiter waiter;
   std::unique_ptr<drivers::CanopenActuatorSet> actuators;
   drivers::ActuatorFeedback fb;
@@ -253,8 +239,8 @@ TEST_F(MasterEmulator, ForeignDriveBootsAndRuns) {
   foreign.upload_without_size = true;
   foreign.absent_objects = {0x60C2};
   InProcessCanRig frig(test::dual_v(), load_plant_config_file(test::config_file()), foreign);
-  drivers::canopen::ManualClock fclock;
-  RigWaiter fwaiter(frig, fclock);
+  RigClock fclock(frig);
+  RigWaiter fwaiter(frig);
   std::vector<std::string> log;
   auto set = drivers::boot_actuator_set(frig.master_bus(), fclock, fwaiter, can,
                                         [&](const std::string& l) { log.push_back(l); });
@@ -270,7 +256,6 @@ TEST_F(MasterEmulator, ForeignDriveBootsAndRuns) {
     cmd.request = drivers::DriveRequest::kEnable;
     set->write(cmd);
     frig.step(can.sync_period_ns);
-    fclock.set_ns(frig.now_ns());
   }
   for (int i = 0; i < 4; ++i)
     EXPECT_EQ(f.drive[static_cast<std::size_t>(i)].state, drivers::DriveState::kEnabled) << i;
@@ -286,7 +271,8 @@ struct LayoutRig {
   LayoutRig(fw::BusLayout layout, const DriveEmulatorConfig& emu)
       : c(with_layout(layout)),
         r(test::dual_v(), load_plant_config_file(test::config_file()), emu, 4096),
-        w(r, clk) {}
+        clk(r),
+        w(r) {}
   static drivers::CanConfig with_layout(fw::BusLayout layout) {
     drivers::CanConfig c = drivers::load_can_config_file(test::config_file());
     c.bus_layout = layout;
@@ -313,7 +299,6 @@ struct LayoutRig {
   // One SYNC period of the rig with the host silent.
   std::vector<fw::CanFrame> idle() {
     r.step(c.sync_period_ns);
-    clk.set_ns(r.now_ns());
     return drain_all(r.monitor_bus());
   }
   // Boot must fail; the error's text.
@@ -329,7 +314,7 @@ struct LayoutRig {
 
   drivers::CanConfig c;
   InProcessCanRig r;
-  drivers::canopen::ManualClock clk;
+  RigClock clk;
   RigWaiter w;
 };
 

@@ -1,8 +1,8 @@
 #pragma once
 // Simulated time for a CANopen master on the in-process CAN rig (sim/in_process_can_rig.hpp):
 // the master's clock is the rig's, and its set-up waits (boot, SDO, CiA 402 transitions) run
-// the drive emulators in 0.1 ms steps of simulated time instead of sleeping, so tests and the
-// bus attacker (fuzz/bus_attack_fuzz.cpp) are deterministic.
+// the drive emulators in simulated time instead of sleeping, so tests and the bus attacker
+// (fuzz/bus_attack_fuzz.cpp) are deterministic.
 #include <algorithm>
 #include <cstdint>
 
@@ -23,16 +23,25 @@ class RigClock final : public drivers::canopen::Clock {
 
 class RigWaiter final : public drivers::canopen::Waiter {
  public:
-  static constexpr std::uint64_t kStepNs = 100'000;  // 0.1 ms of simulated time per wait
+  static constexpr std::uint64_t kStepNs = 100'000;  // 0.1 ms: the emulator's answer time
+  // At most one SocketCanWaiter slice (drivers/canopen/waiter.hpp) per wait: the master's
+  // heartbeat keeps going during long waits, as on a real bus.
+  static constexpr std::uint64_t kSliceNs = 5'000'000;
 
   explicit RigWaiter(sim::InProcessCanRig& rig) : rig_(rig) {}
+  // As SocketCanWaiter: returns when a frame may be ready or at the deadline. The emulator
+  // answers the frames it received within 0.1 ms; otherwise nothing reaches the master
+  // before the emulator's next timer (DriveEmulator::next_due_ns: heartbeats, consumer
+  // timeouts, event TPDOs), so simulated time jumps there (capped by a slice) instead of
+  // running the emulator's timers every 0.1 ms of a boot's long waits.
   void wait_until(std::uint64_t deadline_ns) override {
     const std::uint64_t now = rig_.now_ns();
-    if (deadline_ns <= now) {
-      rig_.exchange();
-      return;
-    }
-    rig_.step(std::min<std::uint64_t>(kStepNs, deadline_ns - now));
+    const bool answered = rig_.exchange() > 0;
+    if (deadline_ns <= now) return;
+    const std::uint64_t due = rig_.emulator().next_due_ns(now);
+    const std::uint64_t until =
+        answered || due <= now ? now + kStepNs : std::min(due, now + kSliceNs);
+    rig_.advance(std::min(until, deadline_ns) - now);
   }
 
  private:

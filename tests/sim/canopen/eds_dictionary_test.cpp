@@ -15,8 +15,6 @@
 #include <string>
 #include <vector>
 
-#include "drivers/canopen/clock.hpp"
-#include "drivers/canopen/waiter.hpp"
 #include "drivers/canopen_config.hpp"
 #include "drivers/canopen_setup.hpp"
 #include "firmware_if/eds.hpp"
@@ -24,6 +22,7 @@
 #include "sim/in_process_can_rig.hpp"
 #include "tests/sim/emulator_fixture.hpp"
 #include "tests/sim/sim_fixture.hpp"
+#include "tests/support/can_rig_time.hpp"
 
 namespace dualv::sim {
 namespace {
@@ -173,30 +172,14 @@ TEST(EmulatedDriveEds, AnEdsWithoutPositionActualIsRefused) {
   }
 }
 
-// The master's blocking waits step the rig (and the master's clock) in 0.1 ms.
-class RigWaiter final : public drivers::canopen::Waiter {
- public:
-  RigWaiter(InProcessCanRig& rig, drivers::canopen::ManualClock& clock)
-      : rig_(rig), clock_(clock) {}
-  void wait_until(std::uint64_t deadline_ns) override {
-    const std::uint64_t now = rig_.now_ns();
-    rig_.step(deadline_ns > now ? std::min<std::uint64_t>(deadline_ns - now, 100'000) : 0);
-    clock_.set_ns(rig_.now_ns());
-  }
-
- private:
-  InProcessCanRig& rig_;
-  drivers::canopen::ManualClock& clock_;
-};
-
 TEST(EmulatedDriveEds, TheMasterBootsTheDriveOfAnEdsWithout60C2) {
   const drivers::CanConfig can = drivers::load_can_config_file(test::config_file());
   const eds::Eds e = without(eds::read_eds_file(shipped_eds()), 0x60C2);
   DriveEmulatorConfig cfg = emulator_config_from(can);
   cfg.absent_objects = canopen::drive_from_eds(e, 0, 0).absent_objects;
   InProcessCanRig rig(test::dual_v(), load_plant_config_file(test::config_file()), cfg);
-  drivers::canopen::ManualClock clock;
-  RigWaiter waiter(rig, clock);
+  dualv::test::RigClock clock(rig);
+  dualv::test::RigWaiter waiter(rig);
   std::vector<std::string> log;
   auto set = drivers::boot_actuator_set(rig.master_bus(), clock, waiter, can,
                                         [&](const std::string& l) { log.push_back(l); });

@@ -57,7 +57,7 @@ struct Engine : ::testing::Test {
     const std::uint32_t a = engine.check_write(od, od.entry(slot), v);
     if (a == 0) {
       od.set(slot, v);
-      engine.rebuild(od);
+      engine.rebuild_pdo_of(od, index);
     }
     return a;
   }
@@ -96,6 +96,24 @@ TEST_F(Engine, SynchronousRpdoIsLatchedAtTheNextSync) {
   EXPECT_EQ(hooks.written_slots, (std::vector<int>{s_cw, s_tt}));
   EXPECT_TRUE(engine.maps(PdoDirection::kRpdo, 1, 0x6071));
   EXPECT_FALSE(engine.maps(PdoDirection::kRpdo, 1, 0x6064));
+}
+
+TEST_F(Engine, WritingOnePdosRecordLeavesTheOthersRunning) {
+  // An RPDO1 received, to be latched at the next SYNC (type 1).
+  ASSERT_TRUE(engine.on_rpdo(frame(0x205, {0x0F, 0x00, 0xE8, 0x03}), true, od, hooks, 0).accepted);
+  // RPDO2's and TPDO2's records written meanwhile (CiA 301 7.5.2.35/37: each PDO its own
+  // record): RPDO1 keeps its pending data.
+  EXPECT_EQ(write(0x1401, 2, 1), 0u);
+  EXPECT_EQ(write(0x1801, 2, 1), 0u);
+  engine.latch_at_sync(od, hooks, 1);
+  EXPECT_EQ(od.u(s_cw), 0x000Fu);
+  EXPECT_EQ(od.i(s_tt), 1000);
+  // Its own record written: RPDO1 starts over, what it held is dropped.
+  ASSERT_TRUE(engine.on_rpdo(frame(0x205, {0x06, 0x00, 0x10, 0x00}), true, od, hooks, 2).accepted);
+  EXPECT_EQ(write(0x1400, 2, 1), 0u);
+  engine.latch_at_sync(od, hooks, 3);
+  EXPECT_EQ(od.u(s_cw), 0x000Fu);
+  EXPECT_EQ(od.i(s_tt), 1000);
 }
 
 TEST_F(Engine, NotProcessedOutsideOperationalButRecognised) {

@@ -17,37 +17,15 @@
 #include "safety/fault_log.hpp"
 #include "sim/in_process_can_rig.hpp"
 #include "tests/safety/paper_fixture.hpp"
+#include "tests/support/can_rig_time.hpp"
 
 namespace dualv::sim {
 namespace {
 
+using dualv::test::RigClock;
+using dualv::test::RigWaiter;
 using safety::test::paper;
 using safety::test::robot;
-
-class RigClock final : public drivers::canopen::Clock {
- public:
-  explicit RigClock(const InProcessCanRig& rig) : rig_(rig) {}
-  std::uint64_t now_ns() const noexcept override { return rig_.now_ns(); }
-
- private:
-  const InProcessCanRig& rig_;
-};
-
-class RigWaiter final : public drivers::canopen::Waiter {
- public:
-  explicit RigWaiter(InProcessCanRig& rig) : rig_(rig) {}
-  void wait_until(std::uint64_t deadline_ns) override {
-    const std::uint64_t now = rig_.now_ns();
-    if (deadline_ns <= now) {
-      rig_.exchange();
-      return;
-    }
-    rig_.step(std::min<std::uint64_t>(100'000, deadline_ns - now));
-  }
-
- private:
-  InProcessCanRig& rig_;
-};
 
 struct PaperRun {
   bool finished = false;
