@@ -23,7 +23,7 @@ void register_estop_command(CLI::App& app) {
   static std::string url = runtime::kLiveUrl;
   static std::string key_file;
   static int repeat = 3;
-  cmd->add_option("--lcm", url, "LCM URL of the robot")->capture_default_str();
+  cmd->add_option("--lcm", url, kRobotUrlHelp)->capture_default_str();
   cmd->add_option("--key", key_file, "Sign it too (optional: e-stops are accepted unsigned)");
   cmd->add_option("--repeat", repeat, "Send it this many times, 10 ms apart (UDP may drop one)")
       ->check(CLI::Range(1, 100))
@@ -31,7 +31,8 @@ void register_estop_command(CLI::App& app) {
   cmd->callback([] {
     std::optional<runtime::CommandKey> key;
     if (!key_file.empty()) key = runtime::load_command_key(key_file);
-    auto lcm = runtime::open_lcm(url);
+    const std::string to = runtime::command_url(url);  // runtime/lcm_url.hpp
+    auto lcm = runtime::open_lcm(to);
     for (int i = 0; i < repeat; ++i) {
       if (i > 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
       runtime::send_command(*lcm, runtime::CommandKind::kEstop, "", key ? &*key : nullptr);
@@ -39,7 +40,7 @@ void register_estop_command(CLI::App& app) {
     fmt::print(
         "dualv estop: stop request sent on {} ({}x). Check it took effect with `dualv status`.\n"
         "This is a software stop; the machine's emergency stop is the hardwired STO circuit.\n",
-        url, repeat);
+        to, repeat);
   });
 }
 

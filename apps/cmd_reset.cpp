@@ -19,7 +19,7 @@ void register_reset_command(CLI::App& app) {
   auto* cmd = app.add_subcommand("reset", "Clear a latched stop of a running `dualv run` (signed)");
   static std::string url = runtime::kLiveUrl;
   static std::string key_file;
-  cmd->add_option("--lcm", url, "LCM URL of the robot")->capture_default_str();
+  cmd->add_option("--lcm", url, kRobotUrlHelp)->capture_default_str();
   cmd->add_option("--key", key_file,
                   "Key file (32 bytes; its name without extension is the key id)")
       ->required();
@@ -27,9 +27,10 @@ void register_reset_command(CLI::App& app) {
     std::vector<std::string> warnings;
     const runtime::CommandKey key = runtime::load_command_key(key_file, &warnings);
     for (const auto& w : warnings) fmt::print(stderr, "dualv reset: warning: {}\n", w);
-    auto lcm = runtime::open_lcm(url);
+    const std::string to = runtime::command_url(url);  // runtime/lcm_url.hpp
+    auto lcm = runtime::open_lcm(to);
     const auto sent = runtime::send_command(*lcm, runtime::CommandKind::kReset, "", &key);
-    fmt::print("dualv reset: sent on {} (key '{}', sequence {}). Check with `dualv status`.\n", url,
+    fmt::print("dualv reset: sent on {} (key '{}', sequence {}). Check with `dualv status`.\n", to,
                key.id, sent.sequence);
   });
 }

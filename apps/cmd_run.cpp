@@ -31,6 +31,7 @@
 #include "runtime/channels.hpp"
 #include "runtime/command_auth.hpp"
 #include "runtime/command_channel.hpp"
+#include "runtime/lcm_url.hpp"
 #include "runtime/replay_state.hpp"
 #include "runtime/service_notifier.hpp"
 #include "runtime/telemetry_publisher.hpp"
@@ -323,7 +324,10 @@ int run(const RunArgs& args) {
   telemetry.start();
   // Operator commands: e-stop from anyone, stop/reset signed with a key from the key folder.
   std::unique_ptr<runtime::CommandChannel> commands;
-  const std::string command_url = !args.commands.empty() ? args.commands : args.lcm;
+  // Commands on their own port (runtime/lcm_url.hpp): never queued behind the telemetry.
+  const std::string command_url = !args.commands.empty() ? args.commands
+                                  : args.lcm.empty()     ? std::string()
+                                                         : runtime::command_url(args.lcm);
   if (!command_url.empty()) {
     const std::string key_dir = resolve_keys_dir(args.keys);
     std::vector<runtime::CommandKey> keys;
@@ -537,8 +541,9 @@ void register_run_command(CLI::App& app) {
                   "Publish telemetry live on this LCM URL (e.g. udpm://239.255.76.67:7667?ttl=0) "
                   "instead of writing <out>/telemetry.lcmlog");
   cmd->add_option("--commands", args.commands,
-                  "Receive operator commands (dualv estop/stop/reset) on this LCM URL (default: "
-                  "the --lcm URL when given)");
+                  "Receive operator commands (dualv estop/start/reset/stream) on this LCM URL "
+                  "(default with --lcm: its multicast group one port up, where those commands "
+                  "send when given the same --lcm)");
   cmd->add_flag("--serve", args.serve,
                 "Wait for signed `dualv start PROGRAM` commands and run them (the service mode); "
                 "`dualv start stream` follows signed setpoints from `dualv stream` until a signed "

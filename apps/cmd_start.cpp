@@ -24,7 +24,7 @@ void register_start_command(CLI::App& app) {
   cmd->add_option("program", program,
                   "Program name, as `dualv run` knows it; `stream`: follow `dualv stream`")
       ->required();
-  cmd->add_option("--lcm", url, "LCM URL of the robot")->capture_default_str();
+  cmd->add_option("--lcm", url, kRobotUrlHelp)->capture_default_str();
   cmd->add_option("--key", key_file,
                   "Key file (32 bytes; its name without extension is the key id)")
       ->required();
@@ -37,13 +37,14 @@ void register_start_command(CLI::App& app) {
     std::vector<std::string> warnings;
     const runtime::CommandKey key = runtime::load_command_key(key_file, &warnings);
     for (const auto& w : warnings) fmt::print(stderr, "dualv start: warning: {}\n", w);
-    auto lcm = runtime::open_lcm(url);
+    const std::string to = runtime::command_url(url);  // runtime/lcm_url.hpp
+    auto lcm = runtime::open_lcm(to);
     const auto sent =
         runtime::send_command(*lcm, runtime::CommandKind::kStartProgram, program, &key);
     fmt::print(
         "dualv start: '{}' requested on {} (key '{}', sequence {}). Follow it with "
         "`dualv status --follow`.\n",
-        program, url, key.id, sent.sequence);
+        program, to, key.id, sent.sequence);
   });
 }
 

@@ -86,12 +86,13 @@ int stream(const StreamArgs& a) {
   std::vector<std::string> warnings;
   const runtime::CommandKey key = runtime::load_command_key(a.key_file, &warnings);
   for (const auto& w : warnings) fmt::print(stderr, "dualv stream: warning: {}\n", w);
-  auto lcm = runtime::open_lcm(a.url);
+  const std::string to = runtime::command_url(a.url);  // runtime/lcm_url.hpp
+  auto lcm = runtime::open_lcm(to);
   if (a.start) {
     const auto sent =
         runtime::send_command(*lcm, runtime::CommandKind::kStartProgram, "stream", &key);
-    fmt::print("dualv stream: stream start requested on {} (key '{}', sequence {})\n", a.url,
-               key.id, sent.sequence);
+    fmt::print("dualv stream: stream start requested on {} (key '{}', sequence {})\n", to, key.id,
+               sent.sequence);
   }
   fmt::print("dualv stream: {} setpoints/s for {} on {}\n", a.rate,
              duration > 0.0 ? fmt::format("{:.1f} s", duration) : std::string("ever"),
@@ -146,7 +147,7 @@ void register_stream_command(CLI::App& app) {
       "early (killed, network) the robot stops itself (SS1) after "
       "safety.watchdogs.command_stream_timeout");
   static StreamArgs args;
-  cmd->add_option("--lcm", args.url, "LCM URL of the robot")->capture_default_str();
+  cmd->add_option("--lcm", args.url, kRobotUrlHelp)->capture_default_str();
   cmd->add_option("--key", args.key_file,
                   "Key file (32 bytes; its name without extension is the key id)")
       ->required();

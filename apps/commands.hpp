@@ -6,6 +6,11 @@
 
 namespace dualv::apps {
 
+// The --lcm help of the commands that send to `dualv run` (estop, start, reset, stream).
+inline constexpr const char* kRobotUrlHelp =
+    "LCM URL of the robot (its `dualv run --lcm`); commands go to its group one port up "
+    "(runtime/lcm_url.hpp), where `dualv run` listens";
+
 // Exit code chosen by the subcommand that ran (0 = success).
 int& exit_code() noexcept;
 

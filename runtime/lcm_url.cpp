@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <charconv>
 #include <lcm/lcm-cpp.hpp>
 #include <stdexcept>
 
@@ -22,6 +23,31 @@ std::unique_ptr<lcm::LCM> open_lcm(const std::string& url) {
     throw std::runtime_error(fmt::format("cannot open LCM URL '{}': {}", u, hint));
   }
   return l;
+}
+
+std::string command_url(const std::string& lcm_url) {
+  const std::string scheme = "udpm://";
+  if (lcm_url.rfind(scheme, 0) != 0) return lcm_url;
+  // udpm://[group[:port]][?options]: LCM's own defaults for an empty group or port.
+  const std::size_t options = lcm_url.find('?', scheme.size());
+  const std::string network = lcm_url.substr(
+      scheme.size(), options == std::string::npos ? std::string::npos : options - scheme.size());
+  const std::string rest = options == std::string::npos ? "" : lcm_url.substr(options);
+  const std::size_t colon = network.find(':');
+  const std::string group =
+      network.empty() ? "239.255.76.67" : network.substr(0, colon);  // LCM's default group
+  int port = 7667;                                                   // LCM's default port
+  if (colon != std::string::npos) {
+    const std::string digits = network.substr(colon + 1);
+    const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), port);
+    if (digits.empty() || ec != std::errc() || end != digits.data() + digits.size() || port < 1 ||
+        port > 65534)
+      throw std::invalid_argument(
+          fmt::format("LCM URL '{}': the port must be a number in 1..65534 (operator commands "
+                      "use the next one up)",
+                      lcm_url));
+  }
+  return fmt::format("{}{}:{}{}", scheme, group, port + 1, rest);
 }
 
 }  // namespace dualv::runtime
