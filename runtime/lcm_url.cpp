@@ -25,7 +25,9 @@ std::unique_ptr<lcm::LCM> open_lcm(const std::string& url) {
   return l;
 }
 
-std::string command_url(const std::string& lcm_url) {
+std::string command_url(const std::string& robot_url) {
+  // Empty is the live default, as for open_lcm: its commands must not stay on the telemetry's port.
+  const std::string lcm_url = robot_url.empty() ? std::string(kLiveUrl) : robot_url;
   const std::string scheme = "udpm://";
   if (lcm_url.rfind(scheme, 0) != 0) return lcm_url;
   // udpm://[group[:port]][?options]: LCM's own defaults for an empty group or port.

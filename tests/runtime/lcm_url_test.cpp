@@ -31,9 +31,14 @@ TEST(CommandUrl, UdpmWithoutGroupOrPortUsesLcmsDefaults) {
 
 TEST(CommandUrl, OtherProvidersAreTheirOwnUrl) {
   // In-process and log providers: one instance carries everything, as before.
-  for (const std::string u :
-       {"memq://", "file:///tmp/run.lcmlog?speed=0", "file:///tmp/x?mode=w", ""})
+  for (const std::string u : {"memq://", "file:///tmp/run.lcmlog?speed=0", "file:///tmp/x?mode=w"})
     EXPECT_EQ(command_url(u), u);
+}
+
+TEST(CommandUrl, EmptyIsTheLiveDefaultAsForOpenLcm) {
+  // open_lcm("") publishes on kLiveUrl: an e-stop sent with --lcm "" must reach the port
+  // `dualv run --lcm kLiveUrl` listens on, not stay on the telemetry's.
+  EXPECT_EQ(command_url(""), "udpm://239.255.76.67:7668?ttl=0");
 }
 
 TEST(CommandUrl, APortThatCannotGoUpIsRefusedNamingTheUrl) {
