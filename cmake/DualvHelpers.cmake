@@ -34,7 +34,8 @@ if(DUALV_FUZZ)
     message(FATAL_ERROR "DUALV_FUZZ already enables ASan + UBSan: leave DUALV_SANITIZE off")
   endif()
   add_compile_options(-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined
-                      -fno-omit-frame-pointer)
+                      -fno-omit-frame-pointer
+                      -fsanitize-coverage-ignorelist=${PROJECT_SOURCE_DIR}/fuzz/coverage_ignorelist.txt)
   add_link_options(-fsanitize=address,undefined)
 endif()
 
