@@ -200,6 +200,13 @@ fuzz_one() {
     status=0
     note+="  (stopped early with SIGINT)"
   fi
+  # A campaign in chunks (--runs with --time: a chunk's corpus and ledger line are on disk
+  # before the next starts, so a machine that goes away mid-campaign loses one chunk at most)
+  # ends on its time before its runs.
+  if [ "$ended" = completed ] && [ -n "$time_s" ] && [ -n "$execs" ] && [ -n "$runs" ] &&
+    [ "$execs" -lt "$runs" ]; then
+    ended=time_limit
+  fi
   if [ -n "$runs" ] && [ "$status" -eq 0 ] && [ "$n" -eq 0 ] && [ -n "$execs" ]; then
     save_campaign "$t" "$work" "$execs" "$secs" "${cov:-?}" "$ended" ||
       note+="  (fuzz/campaign/$t not updated: the merge failed, see $build/logs/$t.merge.log)"
