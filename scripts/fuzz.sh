@@ -9,8 +9,9 @@
 # Usage: scripts/fuzz.sh [--time SECONDS] [--runs N] [--jobs N] [TARGET...]
 #   --time S   run each target for S seconds (default 20: the bounded run scripts/test.sh does)
 #   --runs N   a campaign: run each target for N executions (--runs 10000000); with --time
-#              too, whichever comes first. A campaign resumes from fuzz/campaign/<target>/ and
-#              adds to it and to fuzz/campaign/ledger.tsv (below)
+#              too, whichever comes first (a chunk of a long campaign: --time 2400, repeated).
+#              A campaign resumes from fuzz/campaign/<target>/ and adds to it and to
+#              fuzz/campaign/ledger.tsv (below)
 #   --keep-going  do not stop a target at its first finding (libFuzzer -fork=1
 #              -ignore_crashes=1): a campaign goes on past a known, not yet fixed finding
 #   --jobs N   compile with N jobs and run N targets at a time (default: nproc)
