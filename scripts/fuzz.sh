@@ -50,7 +50,7 @@ while [ $# -gt 0 ]; do
     --build) build="$2"; shift 2 ;;
     --keep-going) keep_going=1; shift ;;
     --workers) workers="$2"; shift 2 ;;
-    -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,/^[^#]/{/^#/p}' "$0"; exit 0 ;;
     -*) echo "fuzz.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
     *) targets+=("$1"); shift ;;
   esac
