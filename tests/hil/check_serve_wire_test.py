@@ -142,16 +142,17 @@ class CheckServeWire(unittest.TestCase):
         removal leaves no other SYNC and the given RPDO counts; the fewest removed."""
         for counts in [(1, 1, 1), (0, 1, 1), (2, 1, 1), (2, 2, 0), (3, 1, 2), (0, 0, 0), (1,),
                        (3, 3), (2, 0)]:
-            best = None
+            def explains(sent, gone):
+                left = [f for i, f in enumerate(sent) if i not in gone]
+                return "SYNC" not in left and all(left.count(d) == k for d, k in enumerate(counts))
+
+            fewest = []  # per m, the fewest frames removed (r counts up), if any subset explains
             for m in range(1, 4):
                 sent = [d for _ in range(m) for d in [*range(len(counts)), "SYNC"]][:-1]
-                for r in range(len(sent) + 1):
-                    for gone in itertools.combinations(range(len(sent)), r):
-                        left = [f for i, f in enumerate(sent) if i not in gone]
-                        if "SYNC" not in left and all(left.count(d) == k
-                                                      for d, k in enumerate(counts)):
-                            best = r if best is None else min(best, r)
-                            break  # the fewest for this m: r counts up
+                fewest += [next((r for r in range(len(sent) + 1)
+                                 for gone in itertools.combinations(range(len(sent)), r)
+                                 if explains(sent, set(gone))), None)]
+            best = min(r for r in fewest if r is not None)
             self.assertEqual(check_serve_wire.lost_frames(counts), best, counts)
 
 
